@@ -1,0 +1,148 @@
+"""The open, versioned model file format (JSON or npz; never pickle).
+
+A model file holds one :class:`~simplexspline.SimplexSpline`:
+
+JSON (``.json``)::
+
+    {"format": "simplexspline.model", "version": 1,
+     "degree": d, "continuity": r, "ndim": n, "nbasis": d_hat,
+     "triangulation": {"kind": ..., "vertices": [[...]], "simplices": [[...]],
+                       "grid": {"lower": [...], "upper": [...], "shape": [...],
+                                "table": [...]}},   # grid/fit triangulations only
+     "coefficients": [[...]],                          # (J, d_hat), Eq. 11 order
+     "metadata": {...}}
+
+Floats are written with Python's shortest round-trip representation, so a loaded model
+predicts bit for bit what the saved one did.
+
+npz (``.npz``): the arrays ``vertices``, ``simplices``, ``coefficients`` (and ``grid_*``)
+plus ``header``, a unicode scalar holding the JSON above without the arrays. Loaded with
+``allow_pickle=False``.
+
+Both are written atomically: to a temporary file in the target directory, then renamed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from simplexspline.errors import ModelFileError, SimplexSplineError
+
+__all__ = ["save_spline", "load_spline", "FORMAT", "VERSION", "atomic_write"]
+
+FORMAT = "simplexspline.model"
+VERSION = 1
+
+
+def atomic_write(path: Path, write) -> None:
+    """Call ``write(fileobj)`` on a temporary file next to ``path``, then rename it."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def _header(spline) -> dict:
+    from simplexspline import __version__
+
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "software": f"simplexspline {__version__}",
+        "degree": spline.degree,
+        "continuity": spline.continuity,
+        "ndim": spline.ndim,
+        "nbasis": int(spline.coefficients.shape[1]),
+        "nsimplex": int(spline.coefficients.shape[0]),
+        "metadata": spline.metadata,
+    }
+
+
+def save_spline(spline, path) -> Path:
+    """Write ``spline`` to ``path`` (``.json`` or ``.npz``) atomically."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".json", ".npz"):
+        raise ModelFileError(f"model files end in .json or .npz, got {path.name!r}")
+    if not path.parent.exists():
+        raise ModelFileError(f"directory {str(path.parent)!r} does not exist")
+    header = _header(spline)
+    tri = spline.triangulation.to_arrays()
+    arrays = {k: np.asarray(v) for k, v in tri.items() if k != "kind"}
+    header["triangulation_kind"] = tri["kind"]
+    try:
+        json.dumps(header["metadata"])
+    except (TypeError, ValueError) as exc:
+        raise ModelFileError(f"metadata must be JSON-serialisable: {exc}") from None
+    if suffix == ".json":
+        doc = dict(header)
+        doc["triangulation"] = {k: v.tolist() for k, v in arrays.items()}
+        doc["coefficients"] = spline.coefficients.tolist()
+        data = json.dumps(doc, allow_nan=False).encode()
+        atomic_write(path, lambda fh: fh.write(data))
+    else:
+        arrays["coefficients"] = spline.coefficients
+        arrays["header"] = np.array(json.dumps(header, allow_nan=False))
+        atomic_write(path, lambda fh: np.savez(fh, **arrays))
+    return path
+
+
+def _check_header(doc: dict, path: Path) -> None:
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise ModelFileError(f"{path}: not a simplexspline model file (no format "
+                             f"{FORMAT!r} header)")
+    version = doc.get("version")
+    if version != VERSION:
+        raise ModelFileError(
+            f"{path}: model file version {version!r} is not supported by this simplexspline "
+            f"(which reads version {VERSION}); upgrade simplexspline or re-save the model")
+
+
+def load_spline(path):
+    """Read a model file written by :func:`save_spline`."""
+    from simplexspline.spline.spline import SimplexSpline
+    from simplexspline.spline.triangulation import Triangulation
+
+    path = Path(path)
+    if not path.is_file():
+        raise ModelFileError(f"model file {str(path)!r} does not exist")
+    try:
+        if path.suffix.lower() == ".npz":
+            with np.load(path, allow_pickle=False) as z:
+                doc = json.loads(str(z["header"]))
+                _check_header(doc, path)
+                arrays = {k: z[k] for k in z.files if k != "header"}
+        else:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+            _check_header(doc, path)
+            arrays = {k: np.asarray(v) for k, v in doc["triangulation"].items()}
+            arrays["coefficients"] = np.asarray(doc["coefficients"], dtype=float)
+        tri_data = {k: v for k, v in arrays.items() if k != "coefficients"}
+        tri_data["kind"] = doc.get("triangulation_kind", "explicit")
+        tri = Triangulation.from_arrays(tri_data)
+        return SimplexSpline(tri, doc["degree"], doc["continuity"],
+                             arrays["coefficients"], metadata=doc.get("metadata") or {})
+    except ModelFileError:
+        raise
+    except SimplexSplineError as exc:
+        raise ModelFileError(f"{path}: invalid model contents: {exc}") from None
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile,
+            json.JSONDecodeError, EOFError) as exc:
+        raise ModelFileError(f"{path}: corrupt or unreadable model file "
+                             f"({type(exc).__name__}: {exc})") from None

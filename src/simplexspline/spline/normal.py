@@ -1,0 +1,153 @@
+"""Per-simplex normal-equation blocks, accumulated chunk by chunk.
+
+The regression matrix X of Eq. 36 is block diagonal after sorting the points by simplex:
+each point touches only the d_hat columns of its simplex. So ``X'WX`` is block diagonal
+with J blocks of d_hat x d_hat, and ``X'Wy`` has J blocks of d_hat. They are accumulated
+by sorting each chunk of points per simplex and one BLAS product per block; the dense
+N x (J*d_hat) matrix is never formed, and memory is bounded independently of N.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simplexspline.errors import InputError, OutsideDomainError
+from simplexspline.spline.bform import basis_values_t, num_basis
+from simplexspline.spline.validation import as_points, as_values, as_weights
+
+__all__ = ["NormalEquations"]
+
+#: Points processed per chunk when accumulating (bounds temporary memory).
+CHUNK = 1 << 17
+
+
+class NormalEquations:
+    """Sufficient statistics of a (weighted) least-squares spline fit.
+
+    Parameters
+    ----------
+    triangulation : Triangulation
+    degree : int
+
+    Attributes
+    ----------
+    XtWX : ndarray, shape (J, d_hat, d_hat)
+        Per-simplex Gram blocks ``sum_i w_i B(b_i) B(b_i)'``.
+    XtWy : ndarray, shape (J, d_hat)
+        Per-simplex ``sum_i w_i y_i B(b_i)``.
+    ytWy : float
+        ``sum_i w_i y_i^2``.
+    wsum : ndarray, shape (J,)
+        Sum of weights per simplex.
+    counts : ndarray of int, shape (J,)
+        Number of points (with any weight) per simplex.
+
+    Notes
+    -----
+    Accumulators from different chunks (or machines) add: ``a + b`` or ``a.merge(b)``.
+    """
+
+    def __init__(self, triangulation, degree: int):
+        self.triangulation = triangulation
+        self.degree = int(degree)
+        nsimp = triangulation.nsimplex
+        dhat = num_basis(triangulation.ndim, self.degree)
+        self.XtWX = np.zeros((nsimp, dhat, dhat))
+        self.XtWy = np.zeros((nsimp, dhat))
+        self.ytWy = 0.0
+        self.wsum = np.zeros(nsimp)
+        self.counts = np.zeros(nsimp, dtype=np.int64)
+
+    @property
+    def npoints(self) -> int:
+        """Total number of accumulated points."""
+        return int(self.counts.sum())
+
+    def add(self, x, y, weights=None) -> NormalEquations:
+        """Accumulate a chunk of data in place.
+
+        Parameters
+        ----------
+        x : array_like, shape (N, n)
+            Points; all must lie inside the triangulation.
+        y : array_like, shape (N,)
+            Observations.
+        weights : array_like, shape (N,), optional
+            Non-negative weights (inverse noise variances; diagonal Sigma^-1 of Eq. 38).
+
+        Returns
+        -------
+        self
+        """
+        tri = self.triangulation
+        pts = as_points(x, name="x", ndim=tri.ndim)
+        vals = as_values(y, len(pts))
+        w = as_weights(weights, len(pts))
+        sid = tri.locate(pts)
+        out = np.nonzero(sid < 0)[0]
+        if len(out):
+            raise OutsideDomainError(
+                f"{len(out)} of {len(pts)} data points lie outside the triangulation "
+                f"(first rows: {out[:5].tolist()}); drop them or enlarge the triangulation",
+                out,
+            )
+        for s in range(0, len(pts), CHUNK):
+            e = s + CHUNK
+            self._add_located(pts[s:e], vals[s:e], None if w is None else w[s:e], sid[s:e])
+        return self
+
+    def _add_located(self, pts, vals, w, sid) -> None:
+        """Accumulate points whose simplices are known (kernel, no validation)."""
+        tri = self.triangulation
+        order = np.argsort(sid, kind="stable")
+        sid = sid[order]
+        pts = pts[order]
+        vals = vals[order]
+        b = tri._locator_barycentric(pts, sid)
+        bt = basis_values_t(b.T, self.degree)  # (d_hat, N)
+        nsimp = tri.nsimplex
+        counts = np.bincount(sid, minlength=nsimp)
+        self.counts += counts
+        if w is None:
+            bw = bt
+            wv = vals
+            self.wsum += counts
+            self.ytWy += float(vals @ vals)
+        else:
+            w = w[order]
+            bw = bt * w
+            wv = w * vals
+            self.wsum += np.bincount(sid, weights=w, minlength=nsimp)
+            self.ytWy += float(wv @ vals)
+        ends = np.cumsum(counts)
+        for j in np.nonzero(counts)[0]:
+            s, e = ends[j] - counts[j], ends[j]
+            self.XtWX[j] += bw[:, s:e] @ bt[:, s:e].T
+            self.XtWy[j] += bt[:, s:e] @ wv[s:e]
+
+    def merge(self, other: NormalEquations) -> NormalEquations:
+        """Add another accumulator (same triangulation and degree) into this one."""
+        if other.XtWX.shape != self.XtWX.shape or other.degree != self.degree:
+            raise InputError("cannot merge normal equations of different spline spaces")
+        self.XtWX += other.XtWX
+        self.XtWy += other.XtWy
+        self.ytWy += other.ytWy
+        self.wsum += other.wsum
+        self.counts += other.counts
+        return self
+
+    def __add__(self, other: NormalEquations) -> NormalEquations:
+        out = self.copy()
+        return out.merge(other)
+
+    def copy(self) -> NormalEquations:
+        """A deep copy."""
+        out = NormalEquations.__new__(NormalEquations)
+        out.triangulation = self.triangulation
+        out.degree = self.degree
+        out.XtWX = self.XtWX.copy()
+        out.XtWy = self.XtWy.copy()
+        out.ytWy = self.ytWy
+        out.wsum = self.wsum.copy()
+        out.counts = self.counts.copy()
+        return out
