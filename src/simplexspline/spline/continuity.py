@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import heapq
 from dataclasses import dataclass
+from functools import cached_property
 from math import comb
 
 import numpy as np
@@ -107,82 +108,99 @@ def build_conditions(tri, d: int, r: int) -> Conditions:
     return Conditions(mat, np.concatenate(orders), pairs0)
 
 
-@dataclass(frozen=True)
 class SmoothnessSystem:
-    """The reduced smoothness system, in full and in C^0-reduced coordinates.
+    """The smoothness conditions of a spline space, in full and C^0-reduced coordinates.
+
+    The C^0 conditions equate pairs of coefficients; eliminating them exactly leaves M
+    global coefficients ``g`` with ``c = g[gather]``. Fitting needs only that and the
+    higher-order conditions in those coordinates (``A_all``, possibly redundant); the
+    full-row-rank ``H`` of Eq. 25 is computed on first access.
 
     Attributes
     ----------
-    H : scipy.sparse.csr_matrix, shape (R*, J*d_hat)
-        Full-row-rank smoothness matrix: a subset of the rows of ``H_full``.
     H_full : scipy.sparse.csr_matrix, shape (E*R, J*d_hat)
         All conditions of Eq. 20-22 (rank deficient in general).
-    kept : ndarray of int
-        Rows of ``H_full`` that make up ``H``.
     gather : ndarray of int, shape (J*d_hat,)
-        Global coefficient id of every local coefficient after the C^0 conditions (local
-        coefficients equated by C^0 share an id): ``c = g[gather]``.
+        Global coefficient id of every local coefficient.
     nglobal : int
-        Number of C^0-reduced coefficients M.
-    A : scipy.sparse.csr_matrix, shape (K, M)
-        The kept conditions of order >= 1 in C^0-reduced coordinates (full row rank).
+        Number M of C^0-reduced coefficients.
+    A_all : scipy.sparse.csr_matrix, shape (E*(R-R_0), M)
+        The conditions of order >= 1 in C^0-reduced coordinates (may be redundant).
     """
 
-    H: sp.csr_matrix
-    H_full: sp.csr_matrix
-    kept: np.ndarray
-    gather: np.ndarray
-    nglobal: int
-    A: sp.csr_matrix
+    def __init__(self, cond: Conditions, ncols: int):
+        self.H_full = cond.matrix
+        order = cond.order
+        rows0 = np.nonzero(order == 0)[0]
+        if len(rows0):
+            a, b = cond.pairs0[:, 0], cond.pairs0[:, 1]
+            lo, hi = np.minimum(a, b), np.maximum(a, b)
+            graph = sp.csr_matrix((rows0 + 1.0, (lo, hi)), shape=(ncols, ncols))
+            # A spanning forest of the equality graph is an independent set implying all
+            # C^0 rows; its connected components are the global coefficients.
+            forest = minimum_spanning_tree(graph).tocoo()
+            self._kept0 = np.sort(forest.data.astype(np.int64) - 1)
+            nglobal, gather = connected_components(graph, directed=False)
+        else:
+            self._kept0 = np.empty(0, dtype=np.int64)
+            nglobal, gather = ncols, np.arange(ncols)
+        self.gather = gather.astype(np.int64)
+        self.nglobal = int(nglobal)
+        self._rows_hi = np.nonzero(order > 0)[0]
+        if len(self._rows_hi):
+            G = sp.csr_matrix((np.ones(ncols), (np.arange(ncols), self.gather)),
+                              shape=(ncols, self.nglobal))
+            A_all = (cond.matrix[self._rows_hi] @ G).tocsr()
+            A_all.sum_duplicates()
+            A_all.eliminate_zeros()
+        else:
+            A_all = sp.csr_matrix((0, self.nglobal))
+        self.A_all = A_all
+
+    @cached_property
+    def kept(self) -> np.ndarray:
+        """Rows of ``H_full`` forming an independent set that spans all of them."""
+        keep_hi = self._rows_hi[independent_rows(self.A_all)]
+        return np.sort(np.concatenate([self._kept0, keep_hi]))
+
+    @property
+    def H(self) -> sp.csr_matrix:
+        """Full-row-rank smoothness matrix (Eq. 25): the rows ``kept`` of ``H_full``."""
+        return self.H_full[self.kept]
 
     @property
     def rank(self) -> int:
         """Rank of H_full (= number of rows of H)."""
-        return self.H.shape[0]
+        return len(self.kept)
 
 
 def reduce_rows(cond: Conditions, ncols: int) -> SmoothnessSystem:
-    """Remove redundant rows of the smoothness matrix (paper Eq. 25)."""
-    order = cond.order
-    rows0 = np.nonzero(order == 0)[0]
-    # C^0: coefficient equalities. A spanning forest of the equality graph keeps an
-    # independent set that implies all others; its components are the global coefficients.
-    if len(rows0):
-        a, b = cond.pairs0[:, 0], cond.pairs0[:, 1]
-        lo, hi = np.minimum(a, b), np.maximum(a, b)
-        graph = sp.csr_matrix((rows0 + 1.0, (lo, hi)), shape=(ncols, ncols))
-        forest = minimum_spanning_tree(graph).tocoo()
-        kept0 = np.sort(forest.data.astype(np.int64) - 1)
-        nglobal, gather = connected_components(graph, directed=False)
-    else:
-        kept0 = np.empty(0, dtype=np.int64)
-        nglobal, gather = ncols, np.arange(ncols)
-    gather = gather.astype(np.int64)
-    rows_hi = np.nonzero(order > 0)[0]
-    if len(rows_hi):
-        Hhi = cond.matrix[rows_hi]
-        G = sp.csr_matrix((np.ones(ncols), (np.arange(ncols), gather)), shape=(ncols, nglobal))
-        A_all = (Hhi @ G).tocsr()
-        A_all.sum_duplicates()
-        A_all.eliminate_zeros()
-        keep_hi = _independent_rows(A_all)
-        kept_hi = rows_hi[keep_hi]
-        A = A_all[keep_hi]
-    else:
-        kept_hi = np.empty(0, dtype=np.int64)
-        A = sp.csr_matrix((0, nglobal))
-    kept = np.sort(np.concatenate([kept0, kept_hi]))
-    return SmoothnessSystem(
-        H=cond.matrix[kept],
-        H_full=cond.matrix,
-        kept=kept,
-        gather=gather,
-        nglobal=int(nglobal),
-        A=A.tocsr(),
-    )
+    """The smoothness system with redundant rows identified (paper Eq. 25)."""
+    return SmoothnessSystem(cond, ncols)
 
 
-def _independent_rows(A: sp.csr_matrix) -> np.ndarray:
+#: Up to this many columns, redundant higher-order rows are found by a dense QR with
+#: column pivoting of A'; beyond, by sparse Gaussian elimination.
+DENSE_QR_LIMIT = 4000
+
+
+def independent_rows(A: sp.csr_matrix) -> np.ndarray:
+    """Indices of a maximal set of linearly independent rows of a sparse matrix."""
+    if A.shape[0] == 0:
+        return np.empty(0, dtype=np.int64)
+    used = np.unique(A.indices)
+    if len(used) <= DENSE_QR_LIMIT and A.shape[0] <= 4 * DENSE_QR_LIMIT:
+        from scipy.linalg import qr
+
+        dense = A[:, used].toarray().T  # columns are the rows of A
+        _, R, piv = qr(dense, mode="economic", pivoting=True)
+        diag = np.abs(np.diag(R))
+        rank = int((diag > RANK_TOL * diag[0]).sum()) if len(diag) else 0
+        return np.sort(piv[:rank]).astype(np.int64)
+    return _independent_rows_sparse(A)
+
+
+def _independent_rows_sparse(A: sp.csr_matrix) -> np.ndarray:
     """Indices of a maximal set of linearly independent rows, chosen greedily in order.
 
     Sparse Gaussian elimination: each incoming row is reduced against the pivot rows kept
@@ -253,4 +271,4 @@ def smoothness_matrix(tri, d: int, r: int, reduce: bool = True) -> sp.csr_matrix
     cond = build_conditions(tri, d, r)
     if not reduce:
         return cond.matrix
-    return reduce_rows(cond, tri.nsimplex * num_basis(tri.ndim, d)).H
+    return SmoothnessSystem(cond, tri.nsimplex * num_basis(tri.ndim, d)).H

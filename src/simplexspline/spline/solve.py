@@ -6,12 +6,14 @@ Instead of the paper's pseudo-inverse of the dense KKT matrix (Eq. 42), the solv
 
 1. eliminates the C^0 conditions exactly by gathering coefficients that they equate
    (``c = G g``, G a 0/1 matrix; see :mod:`simplexspline.spline.continuity`);
-2. solves the sparse KKT system of the remaining, full-row-rank conditions ``A g = 0``
+2. solves the remaining conditions ``A g = 0`` (order >= 1; possibly redundant, so no rank
+   reduction is needed) by the method of multipliers (augmented Lagrangian): one sparse LU
+   factorisation of ``P = G'QG + rho A'A`` and a few cheap iterations
 
-       [ G'QG  A' ] [ g  ]   [ G'q ]
-       [ A     0  ] [ nu ] = [ 0   ]
+       g_{k+1} = P^{-1} (G'q - A' nu_k),    nu_{k+1} = nu_k + rho A g_{k+1},
 
-   with a sparse LU factorisation (SuperLU) and one step of iterative refinement.
+   which converge to the exact constrained solution (the KKT system of Eq. 40) whether or
+   not A has full row rank.
 
 The solution is unique iff no non-zero coefficient vector is both invisible to the data
 (``Q c = 0``) and continuous (``H c = 0``). Such directions are found exactly from the
@@ -25,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 from simplexspline.errors import InputError, InsufficientDataError
 
@@ -89,23 +92,48 @@ def _null_directions(Q: np.ndarray):
     return N, np.unique(js)
 
 
-def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> np.ndarray:
-    """Orthonormal basis (full coordinates, dense) of null(Q) intersected with null(H)."""
+def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
+    """Basis (full coordinates, sparse) of null(Q) intersected with null(H).
+
+    The null directions couple only through the conditions they share, so the problem
+    splits into connected components, each solved by a small dense SVD.
+    """
     k = N.shape[1]
     if k == 0:
-        return np.zeros((N.shape[0], 0))
-    HN = (H @ N).tocsr()
+        return sp.csc_matrix((N.shape[0], 0))
+    HN = (H @ N).tocsc()
+    HN.data[np.abs(HN.data) < 1e-15] = 0.0
     HN.eliminate_zeros()
-    nz = np.diff(HN.indptr) > 0
-    dense = HN[nz].toarray()
-    if dense.shape[0] == 0:
-        theta = np.eye(k)
-    else:
-        _, s, vt = np.linalg.svd(dense, full_matrices=True)
-        tol = 1e-9 * (s[0] if len(s) else 1.0)
-        rank = int((s > tol).sum())
-        theta = vt[rank:].T
-    return np.asarray(N @ theta)
+    pattern = (abs(HN).T @ abs(HN)).tocsr()
+    ncomp, label = connected_components(pattern, directed=False)
+    blocks = []
+    for comp in range(ncomp):
+        cols = np.nonzero(label == comp)[0]
+        sub = HN[:, cols]
+        rows = np.unique(sub.indices)
+        if len(rows) == 0:
+            blocks.append((cols, np.eye(len(cols))))
+            continue
+        dense = sub[rows].toarray()
+        _, sv, vt = np.linalg.svd(dense, full_matrices=True)
+        rank = int((sv > 1e-9 * sv[0]).sum())
+        if rank < len(cols):
+            blocks.append((cols, vt[rank:].T))
+    if not blocks:
+        return sp.csc_matrix((N.shape[0], 0))
+    rows, cols, vals, off = [], [], [], 0
+    for c, theta in blocks:
+        r, q = np.nonzero(np.abs(theta) > 0)
+        rows.append(c[r])
+        cols.append(off + q)
+        vals.append(theta[r, q])
+        off += theta.shape[1]
+    T = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(k, off))
+    Z = (N @ T).tocsc()
+    Z.data[np.abs(Z.data) < 1e-14] = 0.0
+    Z.eliminate_zeros()
+    return Z
 
 
 def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None):
@@ -142,9 +170,8 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
             "no data (or only zero weights) to fit: add data points", np.arange(nsimp),
             ne.counts)
     N, deficient = _null_directions(Q)
-    Zu = _undetermined(N, system.H_full) if N.shape[1] else np.zeros((nsimp * dhat, 0))
-    under = np.unique(np.nonzero(np.abs(Zu) > 1e-12)[0] // dhat) if Zu.shape[1] else \
-        np.empty(0, dtype=np.int64)
+    Zu = _undetermined(N, system.H_full)
+    under = np.unique(Zu.indices // dhat)
     if ridge is None and on_insufficient == "ridge":
         ridge = DEFAULT_RIDGE
     if Zu.shape[1] and on_insufficient == "raise" and not ridge:
@@ -170,16 +197,14 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
     if lam > 0:
         mult = np.bincount(gather, minlength=M).astype(float)
         Qg = Qg + sp.diags(lam * mult)
-    A = system.A
+    A = system.A_all
     if Zu.shape[1] and on_insufficient == "minnorm" and not lam:
         # Minimum norm: the undetermined directions (which lie in range(G)) are set to zero.
-        ZG = sp.csr_matrix(Zu.T) @ sp.csr_matrix(
-            (np.ones(len(gather)), (np.arange(len(gather)), gather)), shape=(len(gather), M))
-        ZG = sp.csr_matrix(ZG)
-        ZG.data[np.abs(ZG.data) < 1e-14] = 0.0
-        ZG.eliminate_zeros()
+        G = sp.csr_matrix((np.ones(len(gather)), (np.arange(len(gather)), gather)),
+                          shape=(len(gather), M))
+        ZG = (Zu.T.tocsr() @ G).tocsr()
         A = sp.vstack([A, ZG]).tocsr()
-    g = _kkt_solve(Qg.tocsc(), qg, A, diag_mean)
+    g = _al_solve(Qg.tocsc(), qg, A, diag_mean)
     coef = g[gather].reshape(nsimp, dhat)
     rss = float(ne.ytWy - 2.0 * np.einsum("jk,jk->", coef, q)
                 + np.einsum("jk,jkl,jl->", coef, Q, coef))
@@ -195,33 +220,68 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
     return coef, info
 
 
-def _kkt_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float) -> np.ndarray:
-    """Solve [Qg A'; A 0] [g; nu] = [qg; 0] by sparse LU with iterative refinement."""
+#: Regularisation of the factorised KKT matrix, relative to the mean diagonal of G'QG:
+#: SIGMA on the coefficient block, DELTA on the multiplier block. The factorised matrix is
+#: then quasi-definite (factorisable without pivoting in any symmetric order); iterative
+#: refinement against the exact KKT system removes the regularisation's effect.
+KKT_SIGMA = 1e-10
+KKT_DELTA = 1e-7
+REFINE_MAXITER = 40
+
+
+def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float) -> np.ndarray:
+    """Minimise g'Qg g/2 - qg'g subject to A g = 0 (A may be rank deficient).
+
+    Factorises the regularised, quasi-definite KKT matrix [Qg + sigma I, A'; A, -delta I]
+    once and refines against the exact KKT system [Qg A'; A 0]. This is the method of
+    multipliers (penalty 1/delta) with proximal regularisation; it converges to the exact
+    constrained minimiser when that is unique, whether or not A has full row rank, without
+    forming the ill-conditioned Qg + A'A/delta.
+    """
+    singular = InsufficientDataError(
+        "the constrained least-squares system is singular: the data do not determine the "
+        "spline; use on_insufficient='minnorm' or 'ridge'")
     M = Qg.shape[0]
-    K_rows = A.shape[0]
-    if K_rows:
-        # Rows of A scaled to the size of Qg's diagonal keeps the KKT matrix balanced.
+    m = A.shape[0]
+    if m:
         rn = np.sqrt(np.asarray(A.multiply(A).sum(axis=1)).ravel())
-        As = sp.diags(scale / np.where(rn > 0, rn, 1.0)) @ A
-        K = sp.bmat([[Qg, As.T], [As, None]], format="csc")
+        A = (sp.diags(scale / np.where(rn > 0, rn, 1.0)) @ A).tocsr()
+        K = sp.bmat([[Qg, A.T], [A, None]], format="csc")
     else:
-        K = Qg
-    rhs = np.concatenate([qg, np.zeros(K_rows)])
-    try:
-        lu = spla.splu(K, permc_spec="COLAMD", diag_pivot_thresh=1.0)
-    except RuntimeError as exc:
-        raise InsufficientDataError(
-            f"the constrained least-squares system is singular ({exc}): the data do not "
-            "determine the spline; use on_insufficient='minnorm' or 'ridge'") from None
-    sol = lu.solve(rhs)
-    for _ in range(2):
-        res = rhs - K @ sol
-        sol = sol + lu.solve(res)
-    if not np.all(np.isfinite(sol)):
-        raise InsufficientDataError(
-            "the constrained least-squares system is numerically singular: use "
-            "on_insufficient='minnorm' or 'ridge'")
-    return sol[:M]
+        K = Qg.tocsc()
+    rhs = np.concatenate([qg, np.zeros(m)])
+    # Fast path: quasi-definite, factorised without pivoting. Fallback (e.g. G'QG singular
+    # along many directions that only the constraints fix): threshold partial pivoting.
+    for sigma, pivot in ((KKT_SIGMA, 0.0), (0.0, 0.1)):
+        reg = np.concatenate([np.full(M, sigma * scale), np.full(m, -KKT_DELTA * scale)])
+        Kd = (K + sp.diags(reg)).tocsc()
+        try:
+            lu = spla.splu(Kd, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=pivot,
+                           options={"SymmetricMode": True})
+        except RuntimeError:
+            continue
+        z = _refine(lu, K, rhs, M)
+        if z is not None:
+            return z[:M]
+    raise singular
+
+
+def _refine(lu, K, rhs, M):
+    """Iterative refinement of K z = rhs with an approximate factorisation; None if it
+    does not converge."""
+    z = lu.solve(rhs)
+    last = np.inf
+    step = np.inf
+    for _ in range(REFINE_MAXITER):
+        dz = lu.solve(rhs - K @ z)
+        z += dz
+        step = np.abs(dz[:M]).max() / max(np.abs(z[:M]).max(), 1e-300)
+        if step <= 1e-14 or step >= 0.5 * last:
+            break
+        last = step
+    if not np.all(np.isfinite(z)) or step > 1e-8:
+        return None
+    return z
 
 
 def _listing(ids: np.ndarray, counts: np.ndarray, most: int = 12) -> str:
