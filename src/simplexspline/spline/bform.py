@@ -18,6 +18,8 @@ from math import comb, factorial
 
 import numpy as np
 
+from simplexspline.errors import InputError
+
 __all__ = [
     "multi_indices",
     "num_basis",
@@ -82,7 +84,7 @@ def multi_indices(n: int, d: int) -> np.ndarray:
     [[2, 0, 0], [1, 1, 0], [1, 0, 1], [0, 2, 0], [0, 1, 1], [0, 0, 2]]
     """
     if n < 1 or d < 0:
-        raise ValueError(f"multi_indices needs n >= 1 and d >= 0, got n={n}, d={d}")
+        raise InputError(f"multi_indices needs n >= 1 and d >= 0, got n={n}, d={d}")
     return _multi_indices(int(n), int(d))
 
 
@@ -176,7 +178,7 @@ def basis_values(b: np.ndarray, d: int) -> np.ndarray:
     """
     b = np.asarray(b, dtype=float)
     if b.ndim != 2:
-        raise ValueError(f"b must have shape (N, n+1), got {b.shape}")
+        raise InputError(f"b must have shape (N, n+1), got {b.shape}")
     return basis_values_t(b.T, d).T
 
 
@@ -255,7 +257,7 @@ def _degree_of(n: int, dhat: int) -> int:
     while comb(d + n, n) < dhat:
         d += 1
     if comb(d + n, n) != dhat:
-        raise ValueError(f"{dhat} coefficients is not a B-form size for n={n}")
+        raise InputError(f"{dhat} coefficients is not a B-form size d_hat = C(d+n, n) for n={n}")
     return d
 
 

@@ -124,7 +124,7 @@ def load_spline(path):
         raise ModelFileError(f"model file {str(path)!r} does not exist")
     try:
         if path.suffix.lower() == ".npz":
-            with np.load(path, allow_pickle=False) as z:
+            with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
                 doc = json.loads(str(z["header"]))
                 _check_header(doc, path)
                 arrays = {k: z[k] for k in z.files if k != "header"}

@@ -77,17 +77,57 @@ class SolveInfo:
     rss: float = field(default=float("nan"))
 
 
-def _null_directions(Q: np.ndarray):
-    """Per-block eigen-decomposition: the columns (full coordinates) spanning null(Q)."""
+def _full_rank_blocks(Q: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Cheap screen: blocks certainly of full rank (boolean, shape (J,)).
+
+    A batched Cholesky factorisation with no small pivot: the smallest eigenvalue of a
+    symmetric positive definite matrix is at most its smallest Cholesky pivot, and a block
+    whose pivots are all well away from zero is treated as full rank. Blocks with fewer
+    points than coefficients, failed factorisations and small pivots go to the exact
+    eigen-analysis.
+    """
     nsimp, dhat, _ = Q.shape
-    lam, vec = np.linalg.eigh(Q)
+    ok = counts >= dhat
+    idx = np.nonzero(ok)[0]
+    if len(idx) == 0:
+        return ok
+    diag_max = np.einsum("jkk->jk", Q[idx]).max(axis=1)
+    try:
+        L = np.linalg.cholesky(Q[idx])
+    except np.linalg.LinAlgError:
+        good = np.zeros(len(idx), dtype=bool)
+        for i, j in enumerate(idx):
+            try:
+                Lj = np.linalg.cholesky(Q[j])
+            except np.linalg.LinAlgError:
+                continue
+            good[i] = np.diag(Lj).min() ** 2 > 1e-6 * diag_max[i]
+    else:
+        piv = np.einsum("jkk->jk", L).min(axis=1) ** 2
+        good = piv > 1e-6 * diag_max
+    ok[idx] = good
+    return ok
+
+
+def _null_directions(Q: np.ndarray, counts: np.ndarray):
+    """Columns (full coordinates, sparse) spanning null(Q), from the per-block null spaces.
+
+    Returns the basis N (J*d_hat, k) and the simplices whose blocks are rank deficient.
+    """
+    nsimp, dhat, _ = Q.shape
+    suspect = np.nonzero(~_full_rank_blocks(Q, counts))[0]
+    if len(suspect) == 0:
+        return sp.csc_matrix((nsimp * dhat, 0)), suspect
+    lam, vec = np.linalg.eigh(Q[suspect])
     top = lam[:, -1]
-    ref = np.where(top > 0, top, max(float(top.max()), 1.0))
+    ref = np.where(top > 0, top, max(float(np.einsum("jkk->", Q)) / max(nsimp * dhat, 1),
+                                     1e-300))
     null = lam <= NULL_TOL * ref[:, None]
-    js, ks = np.nonzero(null)
+    bs, ks = np.nonzero(null)
+    js = suspect[bs]
     rows = (js[:, None] * dhat + np.arange(dhat)[None, :]).ravel()
     cols = np.repeat(np.arange(len(js)), dhat)
-    vals = vec[js, :, ks].ravel()
+    vals = vec[bs, :, ks].ravel()
     N = sp.csc_matrix((vals, (rows, cols)), shape=(nsimp * dhat, len(js)))
     return N, np.unique(js)
 
@@ -169,7 +209,7 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
         raise InsufficientDataError(
             "no data (or only zero weights) to fit: add data points", np.arange(nsimp),
             ne.counts)
-    N, deficient = _null_directions(Q)
+    N, deficient = _null_directions(Q, ne.counts)
     Zu = _undetermined(N, system.H_full)
     under = np.unique(Zu.indices // dhat)
     if ridge is None and on_insufficient == "ridge":
@@ -225,7 +265,7 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
 #: then quasi-definite (factorisable without pivoting in any symmetric order); iterative
 #: refinement against the exact KKT system removes the regularisation's effect.
 KKT_SIGMA = 1e-10
-KKT_DELTA = 1e-7
+KKT_DELTA = 1e-10
 REFINE_MAXITER = 40
 
 
@@ -267,8 +307,9 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float)
 
 
 def _refine(lu, K, rhs, M):
-    """Iterative refinement of K z = rhs with an approximate factorisation; None if it
-    does not converge."""
+    """Solve K z = rhs from an approximate factorisation of K: iterative refinement, then
+    (if that converges slowly, e.g. with nearly dependent conditions) GMRES preconditioned
+    by the factorisation. Returns None when neither converges."""
     z = lu.solve(rhs)
     last = np.inf
     step = np.inf
@@ -276,9 +317,16 @@ def _refine(lu, K, rhs, M):
         dz = lu.solve(rhs - K @ z)
         z += dz
         step = np.abs(dz[:M]).max() / max(np.abs(z[:M]).max(), 1e-300)
-        if step <= 1e-14 or step >= 0.5 * last:
+        if step <= 1e-14 or step >= 0.5 * last or not np.isfinite(step):
             break
         last = step
+    if np.isfinite(step) and step > 1e-12:
+        pre = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
+        z2, flag = spla.gmres(K, rhs, x0=z, M=pre, rtol=1e-14, atol=0.0, restart=60,
+                              maxiter=20)
+        if np.all(np.isfinite(z2)):
+            step = np.abs(lu.solve(rhs - K @ z2)[:M]).max() / max(np.abs(z2[:M]).max(), 1e-300)
+            z = z2
     if not np.all(np.isfinite(z)) or step > 1e-8:
         return None
     return z

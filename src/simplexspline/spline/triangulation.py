@@ -500,9 +500,20 @@ class Triangulation:
                 "shape": np.asarray(data["grid_shape"], dtype=np.int64),
                 "table": np.asarray(data["grid_table"], dtype=np.int64),
             }
-        kind = str(data.get("kind", "explicit"))
+        kind = str(data.get("kind", "explicit" if grid is None else "grid"))
+        if grid is not None:
+            if kind not in ("grid", "fit"):
+                raise InputError(f"a {kind!r} triangulation cannot carry a grid table")
+            n = len(grid["shape"])
+            size = int(np.prod(grid["shape"])) * factorial(n)
+            table = grid["table"]
+            nsimp = len(np.asarray(data["simplices"]))
+            if (len(grid["lower"]) != n or len(grid["upper"]) != n or table.shape != (size,)
+                    or table.max(initial=-1) >= nsimp or table.min(initial=0) < -1
+                    or int((table >= 0).sum()) != nsimp):
+                raise InputError("the grid location table does not match the triangulation")
         return cls(data["vertices"], data["simplices"], _kind=kind, _grid=grid,
-                   _check=kind == "explicit")
+                   _check=grid is None)
 
 
 def _ids(ids, most: int = 10) -> str:
@@ -521,7 +532,11 @@ def _box(lower, upper, shape):
         raise InputError("lower and upper must be finite")
     if np.any(upper <= lower):
         raise InputError(f"upper must exceed lower on every axis, got {lower} and {upper}")
-    shape = np.broadcast_to(np.asarray(shape), lower.shape)
+    try:
+        shape = np.broadcast_to(np.asarray(shape), lower.shape)
+    except ValueError:
+        raise InputError(f"shape {np.asarray(shape).tolist()} does not match the "
+                         f"{len(lower)}-D lower/upper corners") from None
     if not np.issubdtype(shape.dtype, np.integer) or np.any(shape < 1):
         raise InputError(f"shape must be positive integers, got {shape.tolist()}")
     cells = int(np.prod(shape.astype(float))) * factorial(len(lower))

@@ -51,8 +51,9 @@ def as_values(y, npts: int, *, name: str = "y") -> np.ndarray:
         arr = np.asarray(y, dtype=float)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name} must be a numeric array: {exc}") from None
-    if arr.ndim == 2 and arr.shape[1] == 1:
-        arr = arr[:, 0]
+    if arr.ndim != 1:
+        raise InputError(f"{name} must be one-dimensional with shape ({npts},), got {arr.shape}; "
+                         "fit one output at a time")
     if arr.shape != (npts,):
         raise InputError(f"{name} must have shape ({npts},) to match x, got {arr.shape}")
     _finite(arr, name)
