@@ -1,0 +1,103 @@
+"""`simplexspline simulate`: fly a simulated flight-test campaign on JSBSim, write Parquet/CSV."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from simplexspline.errors import InputError
+
+
+def _floats(text: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated numbers, got {text!r}") from None
+
+
+def _mix(text: str) -> dict[str, float]:
+    out = {}
+    for item in text.split(","):
+        name, sep, weight = item.partition("=")
+        if not sep:
+            raise argparse.ArgumentTypeError(
+                f"expected FAMILY=WEIGHT pairs such as 3211=0.5,sum-of-sines=0.3, got {text!r}")
+        try:
+            out[name.strip()] = float(weight)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"weight of {name!r} is not a number: {weight!r}") from None
+    return out
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "simulate",
+        help="simulate a flight-test campaign on JSBSim and write it in the flight-data schema",
+        description="Simulate a flight-test campaign (3211s, doublets and sum-of-sines "
+        "maneuvers over a grid of altitudes and airspeeds) on a JSBSim aircraft and write "
+        "one table in the flight-data schema (docs/flight-data-schema.md). Needs the 'sim' "
+        "extra: pip install 'simplexspline[sim]'.",
+    )
+    p.add_argument("--aircraft", default="f16", help="aircraft profile: f16 or global5000 (f16)")
+    p.add_argument("--maneuvers", type=int, default=250, help="number of maneuvers (250)")
+    p.add_argument("--per-condition", type=int, default=None, metavar="N",
+                   help="N maneuvers at every usable flight condition instead of --maneuvers")
+    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    p.add_argument("--altitudes", type=_floats, default=None, metavar="H1,H2,...",
+                   help="altitudes of the condition grid [m] (the aircraft's default grid)")
+    p.add_argument("--airspeeds", type=_floats, default=None, metavar="V1,V2,...",
+                   help="true airspeeds of the condition grid [m/s] (the aircraft's default)")
+    p.add_argument("--mix", type=_mix, default=None, metavar="FAMILY=W,...",
+                   help="relative frequency of 3211, doublet and sum-of-sines maneuvers "
+                        "(3211=0.45,doublet=0.2,sum-of-sines=0.35)")
+    p.add_argument("--turn-fraction", type=float, default=0.5,
+                   help="fraction of sum-of-sines maneuvers flown in a level turn instead of "
+                        "straight and level (0.5)")
+    p.add_argument("--noise-scale", type=float, default=1.0,
+                   help="factor on the default sensor noise (1.0)")
+    p.add_argument("--bias-scale", type=float, default=1.0,
+                   help="factor on the default sensor biases (1.0)")
+    p.add_argument("--ideal-sensors", action="store_true",
+                   help="perfect sensors: measured channels equal the true ones")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes (number of CPUs)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="output file, .parquet (preferred) or .csv (+ .csv.json metadata)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from simplexspline.aero.flightdata import write_flight_data
+    from simplexspline.sim import Campaign, SensorModel
+
+    if args.output.suffix.lower() not in (".parquet", ".pq", ".csv"):
+        raise InputError(f"output {str(args.output)!r} must end in .parquet or .csv")
+    if not args.output.parent.is_dir():
+        raise InputError(f"output directory {str(args.output.parent)!r} does not exist")
+    if args.noise_scale < 0 or args.bias_scale < 0:
+        raise InputError("--noise-scale and --bias-scale must be non-negative")
+    sensors = (SensorModel.ideal() if args.ideal_sensors
+               else SensorModel().scaled(noise=args.noise_scale, bias=args.bias_scale))
+    campaign = Campaign(args.aircraft, altitudes_m=args.altitudes,
+                        airspeeds_mps=args.airspeeds, maneuvers=args.maneuvers,
+                        maneuvers_per_condition=args.per_condition, mix=args.mix,
+                        seed=args.seed, sensors=sensors, turn_fraction=args.turn_fraction)
+    t0 = time.perf_counter()
+    df = campaign.run(workers=args.workers,
+                      progress=(not args.quiet) and sys.stderr.isatty())
+    t1 = time.perf_counter()
+    write_flight_data(df, args.output)
+    t2 = time.perf_counter()
+    if not args.quiet:
+        s = df.attrs["summary"]
+        print(f"{args.output}: {s['maneuvers_kept']} of {s['maneuvers_planned']} maneuvers kept "
+              f"({s['complete']} complete, {s['cut']} cut at the envelope, {s['dropped']} "
+              f"dropped, {s['trim-failed']} trim failures), {s['samples']:,} samples "
+              f"({s['flight_time_s']:,.0f} s of flight); simulated in {t1 - t0:.1f} s, "
+              f"written in {t2 - t1:.1f} s")
+    return 0

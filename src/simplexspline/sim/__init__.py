@@ -1,0 +1,56 @@
+"""Simulated flight-test campaigns on JSBSim (optional extra ``simplexspline[sim]``).
+
+Describe a campaign (aircraft, altitude x airspeed grid, number and mix of maneuvers,
+sensors, seed), run it, get one table per campaign in the flight-data schema
+(``docs/flight-data-schema.md``)::
+
+    from simplexspline.sim import Campaign
+    df = Campaign("f16", maneuvers=250, seed=0).run()      # ~1e6 samples at 100 Hz
+    from simplexspline.aero.flightdata import write_flight_data
+    write_flight_data(df, "campaign.parquet")
+
+Maneuvers follow Section IV of de Visser, Mulder and Chu (AIAA 2010-7950): automatic
+3211 pulse trains and doublets on elevator, aileron or rudder, and ~100 s multi-axis
+random-phase sum-of-sines disturbances while a pilot model holds straight and level.
+"""
+
+from __future__ import annotations
+
+from simplexspline.sim.aircraft import (
+    SURFACE_SIGN_CONVENTIONS,
+    AircraftProfile,
+    Envelope,
+    Surface,
+    available_aircraft,
+    get_aircraft,
+    register_aircraft,
+)
+from simplexspline.sim.assemble import envelope_coverage
+from simplexspline.sim.campaign import DEFAULT_MIX, Campaign, simulate_campaign
+from simplexspline.sim.maneuvers import MANEUVER_FAMILIES, MANEUVER_TYPES
+from simplexspline.sim.sensors import (
+    DEFAULT_BIAS,
+    DEFAULT_NOISE_STD,
+    MEASURED_CHANNELS,
+    SensorModel,
+)
+
+__all__ = [
+    "Campaign",
+    "simulate_campaign",
+    "SensorModel",
+    "Envelope",
+    "AircraftProfile",
+    "Surface",
+    "get_aircraft",
+    "register_aircraft",
+    "available_aircraft",
+    "envelope_coverage",
+    "DEFAULT_MIX",
+    "DEFAULT_NOISE_STD",
+    "DEFAULT_BIAS",
+    "MEASURED_CHANNELS",
+    "MANEUVER_FAMILIES",
+    "MANEUVER_TYPES",
+    "SURFACE_SIGN_CONVENTIONS",
+]

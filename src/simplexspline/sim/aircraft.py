@@ -1,0 +1,302 @@
+"""Aircraft profiles: how the simulator drives one JSBSim model, and its sane envelope.
+
+A profile is plain data (numbers, strings, tuples): it travels to worker processes as a
+dictionary (:meth:`AircraftProfile.to_dict`) and is rebuilt there, so nothing is pickled
+but builtins. The bundled profiles are ``f16`` and ``global5000``; :func:`get_aircraft`
+returns one, :func:`register_aircraft` adds your own.
+
+Sign conventions (JSBSim's, measured on both bundled models):
+
+* ``de`` > 0: elevator trailing edge down, nose-down pitching moment (dCm/dde < 0);
+* ``da`` > 0: positive (right-wing-down) rolling moment (dCl/dda > 0);
+* ``dr`` > 0: trailing edge left, nose-left yawing moment (dCn/ddr < 0).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+
+from simplexspline.errors import InputError
+
+__all__ = [
+    "Envelope",
+    "Surface",
+    "AircraftProfile",
+    "get_aircraft",
+    "register_aircraft",
+    "available_aircraft",
+    "SURFACE_SIGN_CONVENTIONS",
+]
+
+_DEG = math.pi / 180.0
+
+SURFACE_SIGN_CONVENTIONS = {
+    "de": "positive trailing edge down; gives a nose-down pitching moment (dCm/dde < 0)",
+    "da": "positive gives a right-wing-down rolling moment (dCl/dda > 0)",
+    "dr": "positive trailing edge left; gives a nose-left yawing moment (dCn/ddr < 0)",
+}
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Limits a kept sample must satisfy (true values, SI units, radians).
+
+    A maneuver is cut at the first sample outside these limits; the samples before it are
+    kept and the maneuver is marked ``cut`` in the campaign log.
+
+    Attributes
+    ----------
+    alpha_min, alpha_max : float
+        Angle-of-attack limits [rad].
+    beta_max : float
+        Largest sideslip magnitude [rad].
+    phi_max, theta_max : float
+        Largest bank and pitch-attitude magnitudes [rad].
+    nz_min, nz_max : float
+        Load-factor limits, nz = -az / g0 (+1 in level flight) [-].
+    mach_max : float
+        Largest Mach number [-].
+    h_min : float
+        Lowest pressure altitude [m].
+    """
+
+    alpha_min: float
+    alpha_max: float
+    beta_max: float
+    phi_max: float
+    theta_max: float
+    nz_min: float
+    nz_max: float
+    mach_max: float
+    h_min: float = 300.0
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Envelope:
+        return cls(**d)
+
+
+@dataclass(frozen=True)
+class Surface:
+    """One control-surface channel: JSBSim properties and the actuator model.
+
+    Attributes
+    ----------
+    limit : float
+        Deflection limit, symmetric [rad].
+    rate : float
+        Actuator rate limit [rad/s].
+    tau : float
+        Actuator first-order time constant [s].
+    writes : tuple of (str, float)
+        JSBSim properties set to ``gain * deflection`` each step (FCS disabled): the ones
+        the aerodynamic model reads. The first one is read back as the deflection.
+    """
+
+    limit: float
+    rate: float
+    tau: float
+    writes: tuple
+
+
+@dataclass(frozen=True)
+class AircraftProfile:
+    """Everything the simulator needs to know about one JSBSim aircraft.
+
+    Attributes
+    ----------
+    name : str
+        Profile name (the ``aircraft`` metadata value).
+    model : str
+        JSBSim model name (``FGFDMExec.load_model``).
+    elevator, aileron, rudder : Surface
+        Control-surface channels.
+    throttles : tuple of str
+        Throttle position properties (one per engine).
+    tanks : tuple of str
+        Fuel tank contents properties [lbs] scaled by the fuel fraction before the trim.
+    control_power : tuple of float
+        Approximate (dCm/dde, dCl/dda, dCn/ddr) [1/rad], measured on the model; used only
+        to schedule the pilot and the excitation amplitudes with dynamic pressure.
+    altitudes_m, airspeeds_mps : tuple of float
+        Default flight-condition grid (geometric altitude, true airspeed).
+    envelope : Envelope
+        Limits of kept data.
+    pulse_unit_s : tuple of float
+        (min, max) 3211/doublet pulse unit [s].
+    pulse_accel : tuple of tuple of float
+        (min, max) angular-acceleration amplitude of a pulse per axis (pitch, roll, yaw)
+        [rad/s^2]; converted to a deflection with the control power and dynamic pressure.
+    pulse_qbar_ref : float
+        Above this dynamic pressure [Pa] the elevator pulse amplitude is reduced by
+        ``pulse_qbar_ref / qbar`` (the load-factor response grows with dynamic pressure).
+    sos_accel_rms : tuple of float
+        RMS angular acceleration of the sum-of-sines input per axis [rad/s^2].
+    sos_band_hz : tuple of float
+        (low, high) frequency band of the sum-of-sines components [Hz].
+    sos_bank : float
+        Largest bank angle of a sum-of-sines maneuver flown in a level turn [rad]; half of
+        those maneuvers are flown turning at a random bank up to this value (load factor
+        and angle of attack above 1 g), the others wings level.
+    pilot_bandwidth : tuple of float
+        Natural frequency of the pilot's (pitch, roll) attitude loop [rad/s].
+    sas_damping : tuple of float
+        Rate-damper angular-acceleration gains (pitch, roll, yaw) [1/s].
+    fuel_fraction : tuple of float
+        (min, max) fraction of the model's initial fuel per maneuver (mass variation).
+    schedules : tuple
+        Surfaces scheduled by the simulated FCS, each ``(property, default, rules)`` with
+        rules ``((variable, threshold, value), ...)``: the first rule whose ``variable``
+        ('alpha' [rad] or 'mach') exceeds ``threshold`` sets ``value``.
+    flap_property : str or None
+        Property recorded in the ``flap`` column [rad], or None.
+    flap_scale : float
+        Factor converting ``flap_property`` to radians.
+    """
+
+    name: str
+    model: str
+    elevator: Surface
+    aileron: Surface
+    rudder: Surface
+    throttles: tuple
+    tanks: tuple
+    control_power: tuple
+    altitudes_m: tuple
+    airspeeds_mps: tuple
+    envelope: Envelope
+    pulse_unit_s: tuple
+    pulse_accel: tuple
+    pulse_qbar_ref: float
+    sos_accel_rms: tuple
+    sos_band_hz: tuple
+    sos_bank: float
+    pilot_bandwidth: tuple
+    sas_damping: tuple
+    fuel_fraction: tuple = (0.4, 1.0)
+    schedules: tuple = ()
+    flap_property: str | None = None
+    flap_scale: float = 1.0
+    notes: str = field(default="", compare=False)
+
+    @property
+    def surfaces(self) -> tuple:
+        """(elevator, aileron, rudder)."""
+        return (self.elevator, self.aileron, self.rudder)
+
+    def to_dict(self) -> dict:
+        """Plain-data form (JSON-compatible after tuple -> list)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> AircraftProfile:
+        d = dict(d)
+        for key in ("elevator", "aileron", "rudder"):
+            s = dict(d[key])
+            s["writes"] = tuple(tuple(w) for w in s["writes"])
+            d[key] = Surface(**s)
+        d["envelope"] = Envelope.from_dict(d["envelope"])
+        d["schedules"] = tuple(
+            (p, float(dflt), tuple(tuple(r) for r in rules)) for p, dflt, rules in d["schedules"]
+        )
+        for key in ("throttles", "tanks", "control_power", "altitudes_m", "airspeeds_mps",
+                    "pulse_unit_s", "sos_accel_rms", "sos_band_hz", "pilot_bandwidth",
+                    "sas_damping", "fuel_fraction"):
+            d[key] = tuple(d[key])
+        d["pulse_accel"] = tuple(tuple(a) for a in d["pulse_accel"])
+        return cls(**d)
+
+    def replace(self, **changes) -> AircraftProfile:
+        """A copy with some fields changed (e.g. a tighter envelope)."""
+        return replace(self, **changes)
+
+
+_F16 = AircraftProfile(
+    name="f16",
+    model="f16",
+    # Actuators after Stevens & Lewis' F-16 model: 20.2 rad/s lag, 60/80/120 deg/s.
+    # only the properties the f16's aerodynamics read (the FCS that would derive the
+    # others is off)
+    elevator=Surface(0.436, 60 * _DEG, 1 / 20.2, (("fcs/elevator-pos-rad", 1.0),)),
+    aileron=Surface(0.375, 80 * _DEG, 1 / 20.2, (("fcs/aileron-pos-rad", 1.0),)),
+    rudder=Surface(0.524, 120 * _DEG, 1 / 20.2, (("fcs/rudder-pos-rad", 1.0),)),
+    throttles=("fcs/throttle-pos-norm",),
+    tanks=("propulsion/tank/contents-lbs", "propulsion/tank[1]/contents-lbs"),
+    control_power=(-0.53, 0.050, -0.046),
+    altitudes_m=(1500.0, 3000.0, 4500.0, 6000.0, 7500.0, 9000.0, 10500.0),
+    airspeeds_mps=(110.0, 140.0, 170.0, 200.0, 230.0, 260.0),
+    envelope=Envelope(alpha_min=-10 * _DEG, alpha_max=25 * _DEG, beta_max=10 * _DEG,
+                      phi_max=75 * _DEG, theta_max=60 * _DEG, nz_min=-2.0, nz_max=7.0,
+                      mach_max=0.95, h_min=300.0),
+    pulse_unit_s=(0.25, 0.6),
+    pulse_accel=((0.5, 1.3), (1.5, 4.0), (0.3, 0.9)),
+    pulse_qbar_ref=9000.0,
+    sos_accel_rms=(0.35, 1.0, 0.2),
+    sos_band_hz=(0.1, 2.0),
+    sos_bank=60 * _DEG,
+    pilot_bandwidth=(2.0, 2.5),
+    sas_damping=(3.0, 3.0, 1.5),
+    schedules=(("fcs/lef-pos-rad", 0.0,
+                (("alpha", 0.2618, 0.436), ("alpha", 0.0873, 0.262), ("mach", 0.9, -0.0349))),),
+    flap_property="fcs/lef-pos-rad",
+    notes="leading-edge flap (flap column) scheduled on alpha and Mach as in JSBSim's f16 FCS",
+)
+
+_GLOBAL5000 = AircraftProfile(
+    name="global5000",
+    model="global5000",
+    # the aerodynamics read the left aileron only, and the drag |elevator-pos-norm|
+    elevator=Surface(0.35, 40 * _DEG, 0.08,
+                     (("fcs/elevator-pos-rad", 1.0), ("fcs/elevator-pos-norm", 1 / 0.35))),
+    aileron=Surface(0.35, 40 * _DEG, 0.08, (("fcs/left-aileron-pos-rad", 1.0),)),
+    rudder=Surface(0.35, 40 * _DEG, 0.08, (("fcs/rudder-pos-rad", 1.0),)),
+    throttles=("fcs/throttle-pos-norm", "fcs/throttle-pos-norm[1]"),
+    tanks=("propulsion/tank/contents-lbs", "propulsion/tank[1]/contents-lbs",
+           "propulsion/tank[2]/contents-lbs"),
+    control_power=(-0.90, 0.100, -0.100),
+    altitudes_m=(1500.0, 3000.0, 4500.0, 6000.0, 7500.0, 9000.0, 10500.0, 12000.0),
+    airspeeds_mps=(120.0, 145.0, 170.0, 195.0, 220.0, 245.0),
+    envelope=Envelope(alpha_min=-5 * _DEG, alpha_max=12 * _DEG, beta_max=8 * _DEG,
+                      phi_max=45 * _DEG, theta_max=30 * _DEG, nz_min=-0.5, nz_max=2.5,
+                      mach_max=0.89, h_min=300.0),
+    pulse_unit_s=(0.5, 1.2),
+    pulse_accel=((0.15, 0.45), (0.3, 0.9), (0.08, 0.25)),
+    pulse_qbar_ref=20000.0,
+    sos_accel_rms=(0.15, 0.4, 0.08),
+    sos_band_hz=(0.05, 1.5),
+    sos_bank=30 * _DEG,
+    pilot_bandwidth=(1.5, 1.5),
+    sas_damping=(2.0, 2.0, 1.0),
+    flap_property="fcs/flap-pos-deg",
+    flap_scale=math.pi / 180.0,
+)
+
+_REGISTRY: dict[str, AircraftProfile] = {"f16": _F16, "global5000": _GLOBAL5000}
+
+
+def available_aircraft() -> list[str]:
+    """Names of the registered aircraft profiles."""
+    return sorted(_REGISTRY)
+
+
+def get_aircraft(aircraft: str | AircraftProfile) -> AircraftProfile:
+    """Return the profile for ``aircraft`` (a name or a profile, returned unchanged)."""
+    if isinstance(aircraft, AircraftProfile):
+        return aircraft
+    try:
+        return _REGISTRY[str(aircraft)]
+    except KeyError:
+        raise InputError(
+            f"unknown aircraft {aircraft!r}: choose one of {available_aircraft()} "
+            "or register a profile with simplexspline.sim.register_aircraft"
+        ) from None
+
+
+def register_aircraft(profile: AircraftProfile) -> None:
+    """Register a profile under ``profile.name`` (replacing one of the same name)."""
+    if not isinstance(profile, AircraftProfile):
+        raise InputError("register_aircraft expects an AircraftProfile")
+    _REGISTRY[profile.name] = profile

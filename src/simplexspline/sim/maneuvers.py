@@ -1,0 +1,205 @@
+"""Maneuver input signals: 3211 pulse trains, doublets and multi-axis sums of sines.
+
+The designs follow Section IV of de Visser, Mulder and Chu (AIAA 2010-7950): short,
+large-amplitude automatic 3211 pulse sets on one surface, and ~100 s semi-random
+sum-of-sines disturbance signals on all three axes while a pilot holds straight and level.
+
+A design is plain data (a dict of numbers and lists). Amplitudes are angular accelerations
+[rad/s^2]: :func:`excitation` turns them into surface deflections with the aircraft's
+control power and the dynamic pressure at the trim point, so one design scales sensibly
+from 120 to 260 m/s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from simplexspline.errors import InputError
+from simplexspline.sim.aircraft import AircraftProfile
+
+__all__ = [
+    "AXES",
+    "MANEUVER_FAMILIES",
+    "MANEUVER_TYPES",
+    "design_maneuver",
+    "excitation",
+    "pulse_shape",
+    "multisine",
+]
+
+#: Control axes in the order (elevator, aileron, rudder).
+AXES = ("elevator", "aileron", "rudder")
+#: Families a campaign mixes; the pulse families are flown on one axis at a time.
+MANEUVER_FAMILIES = ("3211", "doublet", "sum-of-sines")
+#: Every ``maneuver_type`` value the simulator writes.
+MANEUVER_TYPES = tuple(f"{fam}-{ax}" for fam in ("3211", "doublet") for ax in AXES) + (
+    "sum-of-sines",
+)
+
+LEAD_S = 2.0  #: trimmed flight recorded before the input starts [s]
+TAIL_S = 7.0  #: free response recorded after a pulse input [s]
+TAPER_S = 3.0  #: cosine fade-in/fade-out of the sum-of-sines signal [s]
+SOS_COMPONENTS = 16  #: sinusoids per axis in the sum-of-sines signal
+
+
+def pulse_shape(t: np.ndarray, unit: float, pattern: tuple) -> np.ndarray:
+    """Unit-amplitude pulse train.
+
+    Parameters
+    ----------
+    t : (n,) ndarray
+        Time since the start of the pulse train [s].
+    unit : float
+        Pulse unit [s].
+    pattern : tuple of int
+        Pulse lengths in units with alternating sign, e.g. (3, 2, 1, 1) for a 3211 and
+        (1, 1) for a doublet.
+
+    Returns
+    -------
+    (n,) ndarray
+        +1/-1 during the pulses (starting with +1), 0 elsewhere.
+    """
+    out = np.zeros_like(t, dtype=float)
+    start, sign = 0.0, 1.0
+    for length in pattern:
+        stop = start + length * unit
+        out[(t >= start) & (t < stop)] = sign
+        start, sign = stop, -sign
+    return out
+
+
+def multisine(t: np.ndarray, freqs_hz, phases, duration: float) -> np.ndarray:
+    """Sum of equal-amplitude sines scaled to unit RMS, with cosine tapers at both ends.
+
+    Parameters
+    ----------
+    t : (n,) ndarray
+        Time since the start of the signal [s]; zero outside [0, duration].
+    freqs_hz, phases : (m,) array_like
+        Component frequencies [Hz] and phases [rad].
+    duration : float
+        Signal length [s].
+    """
+    f = np.asarray(freqs_hz, dtype=float)
+    ph = np.asarray(phases, dtype=float)
+    s = np.sin(2 * math.pi * np.outer(t, f) + ph).sum(axis=1) / math.sqrt(len(f) / 2.0)
+    ramp = np.clip(np.minimum(t, duration - t) / TAPER_S, 0.0, 1.0)
+    return s * 0.5 * (1 - np.cos(math.pi * ramp))
+
+
+def _sos_frequencies(rng: np.random.Generator, band: tuple, duration: float) -> list:
+    """Disjoint (interleaved harmonic) frequency sets per axis, log-spread over the band."""
+    lo, hi = band
+    k0 = max(1, math.ceil(lo * duration))
+    k1 = max(k0 + 3 * SOS_COMPONENTS, math.floor(hi * duration))
+    out = []
+    for axis in range(3):
+        harmonics = np.arange(k0 + axis, k1 + 1, 3)
+        # log-uniform targets, then the nearest unused harmonic
+        targets = np.exp(rng.uniform(math.log(harmonics[0]), math.log(harmonics[-1]),
+                                     SOS_COMPONENTS))
+        chosen: set[int] = set()
+        for target in np.sort(targets):
+            order = np.argsort(np.abs(harmonics - target), kind="stable")
+            for j in order:
+                if int(harmonics[j]) not in chosen:
+                    chosen.add(int(harmonics[j]))
+                    break
+        out.append(sorted(h / duration for h in chosen))
+    return out
+
+
+def design_maneuver(kind: str, profile: AircraftProfile, rng: np.random.Generator,
+                    sos_duration_s: tuple = (90.0, 110.0), turn_fraction: float = 0.5) -> dict:
+    """Randomised input design for one maneuver.
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`MANEUVER_TYPES`.
+    profile : AircraftProfile
+        Supplies the pulse-unit range, amplitude ranges and frequency band.
+    rng : numpy.random.Generator
+        The maneuver's design stream.
+    sos_duration_s : (float, float)
+        Range of sum-of-sines signal lengths [s].
+    turn_fraction : float
+        Probability that a sum-of-sines maneuver is flown in a level turn (bank up to
+        ``profile.sos_bank``) instead of straight and level.
+
+    Returns
+    -------
+    dict
+        ``type``, ``duration_s`` (record length incl. lead-in and free response) and the
+        signal parameters (plain numbers and lists).
+    """
+    if kind not in MANEUVER_TYPES:
+        raise InputError(f"unknown maneuver type {kind!r}: choose one of {MANEUVER_TYPES}")
+    if kind == "sum-of-sines":
+        length = float(rng.uniform(*sos_duration_s))
+        freqs = _sos_frequencies(rng, profile.sos_band_hz, length)
+        phases = [rng.uniform(0, 2 * math.pi, len(f)).tolist() for f in freqs]
+        scale = float(rng.uniform(0.6, 1.0))
+        rms = [scale * a for a in profile.sos_accel_rms]
+        turning = rng.random() < turn_fraction
+        bank = float(rng.uniform(0.3, 1.0) * profile.sos_bank * (1 if rng.random() < 0.5 else -1))
+        return {"type": kind, "family": "sum-of-sines", "axis": None,
+                "duration_s": LEAD_S + length + 1.0, "signal_s": length,
+                "freqs_hz": freqs, "phases": phases, "accel_rms": rms,
+                "bank": bank if turning else 0.0}
+    family, axis = kind.split("-", 1)
+    iaxis = AXES.index(axis)
+    lo, hi = profile.pulse_unit_s
+    if family == "doublet":
+        lo, hi = 1.5 * lo, 2.0 * hi
+    unit = float(rng.uniform(lo, hi))
+    amp = float(rng.uniform(*profile.pulse_accel[iaxis])) * (1.0 if rng.random() < 0.5 else -1.0)
+    pattern = [3, 2, 1, 1] if family == "3211" else [1, 1]
+    return {"type": kind, "family": family, "axis": axis,
+            "duration_s": LEAD_S + sum(pattern) * unit + TAIL_S,
+            "unit_s": unit, "pattern": pattern, "accel": amp}
+
+
+def excitation(design: dict, n: int, dt: float, gains: tuple, limits: tuple,
+               pitch_scale: float = 1.0) -> np.ndarray:
+    """Surface deflections added to the pilot/SAS commands, per sample.
+
+    Parameters
+    ----------
+    design : dict
+        From :func:`design_maneuver`.
+    n : int
+        Number of samples.
+    dt : float
+        Sample time [s].
+    gains : (3,) tuple of float
+        Deflection per angular acceleration for (elevator, aileron, rudder) at the trim
+        point [rad / (rad/s^2)] (signed: includes the sign of the control power).
+    limits : (3,) tuple of float
+        Surface limits [rad]; amplitudes are capped at 80 % of them.
+    pitch_scale : float
+        Factor on elevator pulse amplitudes (dynamic-pressure scheduling).
+
+    Returns
+    -------
+    (n, 3) ndarray
+        Deflections [rad]; zero during the lead-in.
+    """
+    t = np.arange(n) * dt - LEAD_S
+    out = np.zeros((n, 3))
+    if design["family"] == "sum-of-sines":
+        for i in range(3):
+            sig = multisine(t, design["freqs_hz"][i], design["phases"][i], design["signal_s"])
+            sig[(t < 0) | (t > design["signal_s"])] = 0.0
+            amp = min(abs(gains[i] * design["accel_rms"][i]), 0.3 * limits[i])
+            out[:, i] = math.copysign(amp, gains[i]) * sig
+        return out
+    i = AXES.index(design["axis"])
+    scale = pitch_scale if i == 0 else 1.0
+    amp = min(abs(gains[i] * design["accel"] * scale), 0.8 * limits[i])
+    out[:, i] = math.copysign(amp, gains[i] * design["accel"]) * pulse_shape(
+        t, design["unit_s"], tuple(design["pattern"]))
+    return out

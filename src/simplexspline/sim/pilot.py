@@ -1,0 +1,211 @@
+"""Actuators, stability augmentation and the pilot model.
+
+With JSBSim's own flight control system switched off after the trim, these models close
+the loop:
+
+* :class:`Actuator`: first-order lag with rate and position limits, per surface;
+* :class:`Pilot`: rate dampers (the flight control computer's SAS, always on) plus an
+  attitude-holding outer loop. In ``"pilot"`` mode (sum-of-sines maneuvers) it holds
+  straight and level flight like a human on a sidestick: altitude through pitch attitude,
+  heading through bank, airspeed through the throttle, with a reaction delay. In
+  ``"autopilot"`` mode (3211s and doublets, flown automatically) it is a weak attitude
+  hold without delay and with the throttle fixed, so the aircraft's free response stays
+  visible.
+
+The control laws are written as angular-acceleration demands and inverted with the
+aircraft's control power at the current dynamic pressure (gain scheduling), so one set of
+bandwidths serves the whole envelope. They use the true state: the simulated pilot sees the
+outside world, not the sensor noise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+__all__ = ["Actuator", "Pilot"]
+
+_G0 = 9.80665
+
+
+class Actuator:
+    """First-order actuator with rate and position limits (discrete, exact lag).
+
+    Parameters
+    ----------
+    position : float
+        Initial deflection [rad].
+    limit : float
+        Symmetric position limit [rad].
+    rate : float
+        Rate limit [rad/s].
+    tau : float
+        Time constant [s].
+    dt : float
+        Step [s].
+    """
+
+    __slots__ = ("x", "limit", "max_step", "alpha")
+
+    def __init__(self, position: float, limit: float, rate: float, tau: float, dt: float):
+        self.x = float(position)
+        self.limit = float(limit)
+        self.max_step = float(rate) * dt
+        self.alpha = 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0
+
+    def step(self, command: float) -> float:
+        """Advance one step towards ``command``; return the new deflection [rad]."""
+        lim = self.limit
+        if command > lim:
+            command = lim
+        elif command < -lim:
+            command = -lim
+        d = self.alpha * (command - self.x)
+        m = self.max_step
+        if d > m:
+            d = m
+        elif d < -m:
+            d = -m
+        self.x += d
+        return self.x
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+class Pilot:
+    """SAS plus attitude/altitude/heading/speed hold, in angular-acceleration form.
+
+    Parameters
+    ----------
+    mode : {'pilot', 'autopilot'}
+    trim : dict
+        Trim point: ``theta``, ``phi``, ``psi`` [rad], ``h`` [m], ``tas`` [m/s], surface positions
+        ``de``, ``da``, ``dr`` [rad], ``throttle`` [-].
+    bandwidth : (float, float)
+        Pitch and roll attitude-loop natural frequencies [rad/s] (pilot mode; the
+        autopilot uses 40 % of them).
+    damping : (float, float, float)
+        Pitch, roll and yaw rate-damper gains [1/s].
+    control_power : (float, float, float)
+        dCm/dde, dCl/dda, dCn/ddr [1/rad].
+    geometry : (float, float, float)
+        S [m^2], b [m], cbar [m].
+    bank : float
+        Bank angle the pilot holds in a level turn instead of holding the heading [rad]
+        (pilot mode; rolled in over :attr:`ROLL_IN_S` from ``bank_start_s``).
+    bank_start_s : float
+        Time at which the pilot starts rolling into the turn [s].
+    protection : dict, optional
+        Soft envelope protection of the flight control computer: ``nz`` (low, high) [-],
+        ``alpha`` (low, high) [rad] and ``phi`` (largest bank) [rad] beyond which the SAS
+        adds a restoring angular-acceleration demand (like a g/alpha limiter).
+    delay_s : float
+        Pilot reaction delay of the attitude loop [s] (pilot mode only).
+    dt : float
+        Step [s].
+    """
+
+    K_NZ = 1.5  #: pitch acceleration per g beyond the load-factor protection [rad/s^2]
+    K_ALPHA = 25.0  #: pitch acceleration per rad beyond the alpha protection [rad/s^2 / rad]
+    K_PHI = 6.0  #: roll acceleration per rad beyond the bank protection [rad/s^2 / rad]
+    ROLL_IN_S = 6.0  #: time to roll into a turn [s]
+
+    def __init__(self, mode: str, trim: dict, bandwidth: tuple, damping: tuple,
+                 control_power: tuple, geometry: tuple, bank: float = 0.0,
+                 bank_start_s: float = 0.0, protection: dict | None = None,
+                 delay_s: float = 0.2, dt: float = 0.01):
+        self.human = mode == "pilot"
+        factor = 1.0 if self.human else 0.4
+        self.w2_theta = (factor * bandwidth[0]) ** 2
+        self.w2_phi = (factor * bandwidth[1]) ** 2
+        self.kq, self.kp, self.kr = damping
+        S, b, c = geometry
+        # deflection per angular acceleration and per (qbar / Pa) and inertia / kg m^2
+        self.g_de = 1.0 / (S * c * control_power[0])
+        self.g_da = 1.0 / (S * b * control_power[1])
+        self.g_dr = 1.0 / (S * b * control_power[2])
+        self.dt = dt
+        self.trim = dict(trim)
+        self.theta0, self.phi0 = trim["theta"], trim["phi"]
+        self.de0, self.da0, self.dr0 = trim["de"], trim["da"], trim["dr"]
+        self.thr0 = trim["throttle"]
+        self.h_ref = trim["h"]
+        self.psi_ref = trim["psi"]
+        self.v_ref = trim["tas"]
+        prot = protection or {}
+        self.nz_lo, self.nz_hi = prot.get("nz", (-math.inf, math.inf))
+        self.alpha_lo, self.alpha_hi = prot.get("alpha", (-math.inf, math.inf))
+        self.phi_lim = prot.get("phi", math.inf)
+        self.bank = float(bank) if self.human else 0.0
+        self.k = -int(round(bank_start_s / dt))
+        self.int_theta = 0.0
+        self.int_v = 0.0
+        n_delay = int(round(delay_s / dt)) if self.human else 0
+        # after an append, buffer[0] is the demand computed n_delay steps earlier
+        self.buffer = (deque([(0.0, 0.0)] * (n_delay + 1), maxlen=n_delay + 1)
+                       if n_delay else None)
+
+    def command(self, theta, phi, psi, p, q, r, h, tas, vd, qbar, ixx, iyy, izz, alpha, nz):
+        """Surface commands (de, da, dr) [rad] and throttle for the current true state.
+
+        Parameters are SI/rad; ``qbar`` in Pa, inertias in kg m^2, ``nz`` in g. Returns
+        ``(de, da, dr, throttle)``; throttle is None in autopilot mode (hold).
+        """
+        if tas < 1.0:
+            tas = 1.0
+        # --- outer loops: desired attitude --------------------------------------------
+        if self.human:
+            hdot_cmd = 0.12 * (self.h_ref - h)
+            hdot_cmd = -8.0 if hdot_cmd < -8.0 else (8.0 if hdot_cmd > 8.0 else hdot_cmd)
+            theta_ref = self.theta0 + (hdot_cmd + vd) / tas  # vd = -hdot
+            if self.bank:
+                self.k += 1
+                x = self.k * self.dt / self.ROLL_IN_S
+                phi_ref = self.phi0 + self.bank * (0.0 if x < 0.0 else (1.0 if x > 1.0 else x))
+            else:
+                x = 1.2 * _wrap(self.psi_ref - psi)
+                phi_ref = self.phi0 + (-0.35 if x < -0.35 else (0.35 if x > 0.35 else x))
+        else:
+            theta_ref = self.theta0
+            phi_ref = self.phi0
+        e_theta = theta_ref - theta
+        self.int_theta += e_theta * self.dt
+        pitch_att = self.w2_theta * (e_theta + 0.25 * self.int_theta)
+        roll_att = self.w2_phi * _wrap(phi_ref - phi)
+        if self.buffer is not None:
+            self.buffer.append((pitch_att, roll_att))
+            pitch_att, roll_att = self.buffer[0]
+        # --- inner loops: rate damping (SAS), no delay ---------------------------------
+        sphi = math.sin(phi)
+        turn = _G0 * math.cos(theta) / tas  # turn rate per tan(phi)
+        cphi = math.cos(phi)
+        q_coord = turn * sphi * sphi / (cphi if cphi > 0.17 else 0.17)
+        qdot = pitch_att - self.kq * (q - q_coord)
+        pdot = roll_att - self.kp * p
+        rdot = -self.kr * (r - turn * sphi)
+        # --- envelope protection (FCS), no delay ---------------------------------------
+        if nz > self.nz_hi:
+            qdot -= self.K_NZ * (nz - self.nz_hi)
+        elif nz < self.nz_lo:
+            qdot += self.K_NZ * (self.nz_lo - nz)
+        if alpha > self.alpha_hi:
+            qdot -= self.K_ALPHA * (alpha - self.alpha_hi)
+        elif alpha < self.alpha_lo:
+            qdot += self.K_ALPHA * (self.alpha_lo - alpha)
+        if phi > self.phi_lim:
+            pdot -= self.K_PHI * (phi - self.phi_lim)
+        elif phi < -self.phi_lim:
+            pdot -= self.K_PHI * (phi + self.phi_lim)
+        inv_q = 1.0 / (qbar if qbar > 1.0 else 1.0)
+        de = self.de0 + iyy * qdot * inv_q * self.g_de
+        da = self.da0 + ixx * pdot * inv_q * self.g_da
+        dr = self.dr0 + izz * rdot * inv_q * self.g_dr
+        thr = None
+        if self.human:
+            e_v = self.v_ref - tas
+            self.int_v += e_v * self.dt
+            thr = self.thr0 + 0.03 * e_v + 0.006 * self.int_v
+            thr = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
+        return de, da, dr, thr

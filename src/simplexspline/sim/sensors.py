@@ -1,0 +1,170 @@
+"""Sensor models of a flight-test instrumentation system.
+
+Each measured channel is ``measured(t) = true(t - lag) + bias + noise(t)`` with a constant
+bias, zero-mean Gaussian white noise (independent per sample and channel) and an optional
+pure time lag (linear interpolation; the first value is held before the maneuver starts).
+The defaults are of the order of a flight-test instrumentation package with a
+navigation-grade IMU, vanes on a nose boom and a GPS receiver; they are listed in
+``docs/flight-data-schema.md`` and written into every campaign's metadata.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simplexspline.errors import InputError
+
+__all__ = ["SensorModel", "MEASURED_CHANNELS", "DEFAULT_NOISE_STD", "DEFAULT_BIAS"]
+
+_DEG = math.pi / 180.0
+
+#: Channels the sensor model corrupts, with their units.
+MEASURED_CHANNELS: dict[str, str] = {
+    "alpha": "rad", "beta": "rad", "tas": "m/s", "mach": "-", "h": "m", "rho": "kg/m^3",
+    "p": "rad/s", "q": "rad/s", "r": "rad/s",
+    "phi": "rad", "theta": "rad", "psi": "rad",
+    "ax": "m/s^2", "ay": "m/s^2", "az": "m/s^2",
+    "pdot": "rad/s^2", "qdot": "rad/s^2", "rdot": "rad/s^2",
+    "de": "rad", "da": "rad", "dr": "rad",
+    "x_gps": "m", "y_gps": "m", "z_gps": "m",
+    "vn_gps": "m/s", "ve_gps": "m/s", "vd_gps": "m/s",
+}
+
+#: Default white-noise standard deviations (1 sigma, per 100 Hz sample).
+DEFAULT_NOISE_STD: dict[str, float] = {
+    "alpha": 0.1 * _DEG, "beta": 0.1 * _DEG, "tas": 0.1, "mach": 3e-4, "h": 0.5,
+    "rho": 5e-4,
+    "p": 0.01 * _DEG, "q": 0.01 * _DEG, "r": 0.01 * _DEG,
+    "phi": 0.05 * _DEG, "theta": 0.05 * _DEG, "psi": 0.1 * _DEG,
+    "ax": 0.01, "ay": 0.01, "az": 0.01,
+    "pdot": 0.005, "qdot": 0.005, "rdot": 0.005,
+    "de": 0.02 * _DEG, "da": 0.02 * _DEG, "dr": 0.02 * _DEG,
+    "x_gps": 2.0, "y_gps": 2.0, "z_gps": 4.0,
+    "vn_gps": 0.05, "ve_gps": 0.05, "vd_gps": 0.1,
+}
+
+#: Default constant biases (what a flight-path reconstruction has to estimate).
+DEFAULT_BIAS: dict[str, float] = {
+    "alpha": 0.2 * _DEG, "beta": -0.1 * _DEG, "tas": 0.5,
+    "p": 0.02 * _DEG, "q": -0.015 * _DEG, "r": 0.01 * _DEG,
+    "ax": 0.02, "ay": -0.015, "az": 0.03,
+}
+
+
+def _complete(values: Mapping[str, float] | None, defaults: Mapping[str, float],
+              what: str) -> dict[str, float]:
+    out = {ch: float(defaults.get(ch, 0.0)) for ch in MEASURED_CHANNELS}
+    for ch, v in (values or {}).items():
+        if ch not in MEASURED_CHANNELS:
+            raise InputError(
+                f"sensor {what} given for unknown channel {ch!r}: "
+                f"channels are {sorted(MEASURED_CHANNELS)}"
+            )
+        v = float(v)
+        if not math.isfinite(v) or (what != "bias" and v < 0):
+            raise InputError(f"sensor {what} of {ch!r} must be a finite"
+                             f"{'' if what == 'bias' else ' non-negative'} number, got {v}")
+        out[ch] = v
+    return out
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """Noise, bias and time lag per measured channel.
+
+    Parameters
+    ----------
+    noise_std : mapping of str to float, optional
+        White-noise standard deviation per channel (SI units, rad). Channels not given keep
+        the defaults (:data:`DEFAULT_NOISE_STD`).
+    bias : mapping of str to float, optional
+        Constant bias per channel; defaults :data:`DEFAULT_BIAS` (others zero).
+    lag_s : mapping of str to float, optional
+        Pure time lag per channel [s]; default zero everywhere.
+
+    Examples
+    --------
+    >>> SensorModel.ideal().noise_std["ax"]
+    0.0
+    >>> SensorModel(noise_std={"ax": 0.05}).noise_std["ay"]  # others keep the defaults
+    0.01
+    """
+
+    noise_std: Mapping[str, float] = field(default=None)
+    bias: Mapping[str, float] = field(default=None)
+    lag_s: Mapping[str, float] = field(default=None)
+
+    def __post_init__(self):
+        object.__setattr__(self, "noise_std", _complete(self.noise_std, DEFAULT_NOISE_STD,
+                                                        "noise_std"))
+        object.__setattr__(self, "bias", _complete(self.bias, DEFAULT_BIAS, "bias"))
+        object.__setattr__(self, "lag_s", _complete(self.lag_s, {}, "lag_s"))
+
+    @classmethod
+    def ideal(cls) -> SensorModel:
+        """Perfect sensors: no noise, no bias, no lag (measured == true)."""
+        zero = {ch: 0.0 for ch in MEASURED_CHANNELS}
+        return cls(noise_std=zero, bias=zero, lag_s=zero)
+
+    def scaled(self, noise: float = 1.0, bias: float = 1.0) -> SensorModel:
+        """A copy with all noise levels and biases multiplied by the given factors."""
+        return SensorModel(
+            noise_std={k: noise * v for k, v in self.noise_std.items()},
+            bias={k: bias * v for k, v in self.bias.items()},
+            lag_s=dict(self.lag_s),
+        )
+
+    @property
+    def is_ideal(self) -> bool:
+        """True when the measured channels equal the true ones exactly."""
+        return not any(any(d.values()) for d in (self.noise_std, self.bias, self.lag_s))
+
+    def to_dict(self) -> dict:
+        """Plain-data form (for metadata and worker processes)."""
+        return {"noise_std": dict(self.noise_std), "bias": dict(self.bias),
+                "lag_s": dict(self.lag_s)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> SensorModel:
+        return cls(noise_std=d.get("noise_std"), bias=d.get("bias"), lag_s=d.get("lag_s"))
+
+    def apply(self, true: Mapping[str, np.ndarray], t: np.ndarray,
+              rng: np.random.Generator) -> dict[str, np.ndarray]:
+        """Measured channels from true ones.
+
+        Parameters
+        ----------
+        true : mapping of str to (n,) ndarray
+            True values of every channel in :data:`MEASURED_CHANNELS`.
+        t : (n,) ndarray
+            Sample times [s], increasing.
+        rng : numpy.random.Generator
+            Noise stream; one standard-normal vector is drawn per channel, in the order of
+            :data:`MEASURED_CHANNELS`, whatever the settings (so changing one channel's
+            noise does not change another's).
+
+        Returns
+        -------
+        dict of str to (n,) ndarray
+        """
+        out = {}
+        n = len(t)
+        for ch in MEASURED_CHANNELS:
+            x = np.asarray(true[ch], dtype=float)
+            white = rng.standard_normal(n)
+            lag = self.lag_s[ch]
+            sigma, bias = self.noise_std[ch], self.bias[ch]
+            if not (lag > 0 or sigma or bias):
+                out[ch] = x.copy()
+                continue
+            if lag > 0:
+                x = np.interp(t - lag, t, np.unwrap(x) if ch == "psi" else x)
+            x = x + bias + sigma * white
+            if ch == "psi":
+                x = (x + math.pi) % (2 * math.pi) - math.pi
+            out[ch] = x
+        return out

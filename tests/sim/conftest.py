@@ -1,0 +1,38 @@
+"""Small simulated campaigns shared by the simulator tests (seconds, not minutes)."""
+
+from __future__ import annotations
+
+import pytest
+
+from simplexspline.sim import Campaign, SensorModel
+
+#: A campaign with every maneuver family and all three pulse axes, kept short.
+SMALL = {
+    "f16": {"altitudes_m": [3000.0, 7000.0], "airspeeds_mps": [160.0, 220.0]},
+    "global5000": {"altitudes_m": [3000.0, 8000.0], "airspeeds_mps": [170.0, 220.0]},
+}
+MIX = {"3211": 3, "doublet": 1, "sum-of-sines": 2}
+
+
+def small_campaign(aircraft: str, *, seed: int = 7, sensors: SensorModel | None = None,
+                   maneuvers: int = 6, **kwargs) -> Campaign:
+    settings = {**SMALL[aircraft], "mix": MIX, "sos_duration_s": (15.0, 20.0), **kwargs}
+    return Campaign(aircraft, maneuvers=maneuvers, seed=seed,
+                    sensors=SensorModel.ideal() if sensors is None else sensors, **settings)
+
+
+@pytest.fixture(scope="session")
+def f16_ideal():
+    """Six f16 maneuvers, perfect sensors, run in this process."""
+    return small_campaign("f16").run(workers=1, progress=False)
+
+
+@pytest.fixture(scope="session")
+def global5000_ideal():
+    """Six global5000 maneuvers, perfect sensors, run in this process."""
+    return small_campaign("global5000").run(workers=1, progress=False)
+
+
+@pytest.fixture(scope="session", params=["f16", "global5000"])
+def ideal(request, f16_ideal, global5000_ideal):
+    return {"f16": f16_ideal, "global5000": global5000_ideal}[request.param]

@@ -1,0 +1,55 @@
+"""The `simplexspline simulate` command."""
+
+from __future__ import annotations
+
+import pytest
+
+from simplexspline.aero.flightdata import read_flight_data
+from simplexspline.cli import main
+
+
+def test_simulate_writes_a_valid_parquet_file(tmp_path, capsys):
+    out = tmp_path / "c.parquet"
+    code = main(["simulate", "--aircraft", "f16", "--maneuvers", "2", "--seed", "1",
+                 "--altitudes", "3000", "--airspeeds", "170", "--mix", "doublet=1",
+                 "--workers", "1", "--ideal-sensors", "-o", str(out)])
+    assert code == 0
+    df, meta = read_flight_data(out)
+    assert meta["aircraft"] == "f16" and meta["simulator"]["seed"] == 1
+    assert sorted(df["maneuver"].unique()) == [0, 1]
+    assert (df["alpha"] == df["true_alpha"]).all()
+    text = capsys.readouterr().out
+    assert "2 of 2 maneuvers kept" in text and str(out) in text
+
+
+def test_simulate_quiet_csv(tmp_path, capsys):
+    out = tmp_path / "c.csv"
+    assert main(["simulate", "--maneuvers", "1", "--altitudes", "3000", "--airspeeds",
+                 "170", "--mix", "doublet=1", "--workers", "1", "-q", "-o", str(out)]) == 0
+    assert capsys.readouterr().out == ""
+    df, meta = read_flight_data(out)
+    assert len(df) > 500 and meta["sample_rate_hz"] == 100.0
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--aircraft", "spitfire"], "unknown aircraft 'spitfire'"),
+    (["--maneuvers", "0"], "maneuvers must be a positive integer"),
+    (["--noise-scale", "-1"], "must be non-negative"),
+])
+def test_simulate_errors_are_one_line_messages(tmp_path, capsys, argv, message):
+    code = main(["simulate", *argv, "-o", str(tmp_path / "c.parquet"), "--workers", "1"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_simulate_rejects_unknown_output_type(tmp_path, capsys):
+    assert main(["simulate", "-o", str(tmp_path / "c.xlsx")]) == 2
+    assert "must end in .parquet or .csv" in capsys.readouterr().err
+
+
+def test_simulate_bad_mix_is_a_usage_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "--mix", "3211", "-o", str(tmp_path / "c.parquet")])
+    assert exc.value.code == 2
+    assert "FAMILY=WEIGHT" in capsys.readouterr().err

@@ -1,0 +1,57 @@
+"""The JSBSim boundary: idle models, scratch directory, console silence."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from simplexspline.sim import fdm as fdm_module
+from simplexspline.sim import get_aircraft
+from simplexspline.sim.maneuvers import design_maneuver
+from simplexspline.sim.runner import simulate_maneuver
+from simplexspline.sim.sensors import SensorModel
+
+from .conftest import small_campaign
+
+
+def _spec(aircraft: str, kind: str) -> dict:
+    prof = get_aircraft(aircraft)
+    return {"index": 0, "condition": 0, "profile": prof.to_dict(),
+            "envelope": prof.envelope.to_dict(), "sensors": SensorModel.ideal().to_dict(),
+            "design": design_maneuver(kind, prof, np.random.default_rng(5), (15.0, 15.0)),
+            "h_m": 4000.0, "tas_mps": 200.0, "h_nominal": 4000.0, "tas_nominal": 200.0,
+            "psi_rad": 0.3, "fuel_fraction": 0.8, "seed": 0, "min_kept_s": 3.0,
+            "pilot_delay_s": 0.2}
+
+
+def test_switching_idle_models_off_changes_nothing(monkeypatch):
+    for aircraft in ("f16", "global5000"):
+        spec = _spec(aircraft, "sum-of-sines")
+        fast = simulate_maneuver(spec)["columns"]
+        monkeypatch.setattr(fdm_module, "IDLE_MODELS", ())
+        full = simulate_maneuver(spec)["columns"]
+        monkeypatch.undo()
+        assert fast.keys() == full.keys()
+        for name in fast:
+            assert np.array_equal(fast[name], full[name]), (aircraft, name)
+
+
+def test_jsbsim_leaves_no_files_and_no_console_output(tmp_path, monkeypatch, capfd):
+    monkeypatch.chdir(tmp_path)
+    small_campaign("global5000", maneuvers=1, mix={"doublet": 1}).run(workers=1,
+                                                                      progress=False)
+    assert os.listdir(tmp_path) == []  # global5000 writes global5000.csv into the cwd
+    assert os.getcwd() == str(tmp_path)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+
+
+def test_quiet_scratch_restores_streams(capfd):
+    with fdm_module.quiet_scratch() as scratch:
+        print("hidden")
+        os.write(1, b"hidden too\n")
+        assert os.getcwd() == scratch
+    print("shown")
+    out, _ = capfd.readouterr()
+    assert out == "shown\n"

@@ -1,0 +1,97 @@
+"""Sensor model: noise, bias, lag, defaults, validation (no JSBSim needed)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from simplexspline.errors import InputError
+from simplexspline.sim import DEFAULT_BIAS, DEFAULT_NOISE_STD, MEASURED_CHANNELS, SensorModel
+
+
+def _true(n: int = 20000) -> tuple[dict, np.ndarray]:
+    t = np.arange(n) * 0.01
+    true = {ch: np.sin(0.3 * t + i) for i, ch in enumerate(MEASURED_CHANNELS)}
+    return true, t
+
+
+def test_ideal_sensors_return_the_truth_exactly(rng):
+    true, t = _true(500)
+    out = SensorModel.ideal().apply(true, t, rng)
+    for ch in MEASURED_CHANNELS:
+        assert np.array_equal(out[ch], true[ch])
+        assert out[ch] is not true[ch]
+    assert SensorModel.ideal().is_ideal and not SensorModel().is_ideal
+
+
+def test_noise_and_bias_statistics(rng):
+    true, t = _true()
+    sensors = SensorModel(noise_std={"q": 0.01}, bias={"q": -0.02})
+    out = sensors.apply(true, t, rng)
+    err = out["q"] - true["q"]
+    assert err.mean() == pytest.approx(-0.02, abs=4 * 0.01 / math.sqrt(len(t)))
+    assert err.std() == pytest.approx(0.01, rel=0.03)
+    # white: no correlation between neighbouring samples
+    e = err - err.mean()
+    assert abs(np.dot(e[1:], e[:-1]) / np.dot(e, e)) < 0.03
+
+
+def test_given_channels_override_defaults_only():
+    sensors = SensorModel(noise_std={"ax": 0.05})
+    assert sensors.noise_std["ax"] == 0.05
+    assert sensors.noise_std["ay"] == DEFAULT_NOISE_STD["ay"]
+    assert sensors.bias == {ch: DEFAULT_BIAS.get(ch, 0.0) for ch in MEASURED_CHANNELS}
+    assert set(sensors.lag_s.values()) == {0.0}
+
+
+def test_lag_delays_the_signal(rng):
+    t = np.arange(1000) * 0.01
+    true = {ch: 2.0 * t for ch in MEASURED_CHANNELS}
+    out = SensorModel.ideal().__class__(
+        noise_std={ch: 0.0 for ch in MEASURED_CHANNELS},
+        bias={ch: 0.0 for ch in MEASURED_CHANNELS}, lag_s={"alpha": 0.05}).apply(true, t, rng)
+    assert np.allclose(out["alpha"][5:], 2.0 * (t[5:] - 0.05))
+    assert np.all(out["alpha"][:5] == 0.0)  # first value held before the start
+    assert np.array_equal(out["beta"], true["beta"])
+
+
+def test_lagged_heading_is_unwrapped_then_wrapped(rng):
+    t = np.arange(400) * 0.01
+    psi = (3.0 + 0.5 * t + math.pi) % (2 * math.pi) - math.pi  # crosses +-pi
+    true = {ch: np.zeros_like(t) for ch in MEASURED_CHANNELS}
+    true["psi"] = psi
+    zero = {ch: 0.0 for ch in MEASURED_CHANNELS}
+    out = SensorModel(noise_std=zero, bias=zero, lag_s={"psi": 0.1}).apply(true, t, rng)
+    expected = (3.0 + 0.5 * (t - 0.1) + math.pi) % (2 * math.pi) - math.pi
+    assert np.allclose(out["psi"][10:], expected[10:])
+    assert out["psi"].min() >= -math.pi and out["psi"].max() <= math.pi
+
+
+def test_noise_streams_do_not_depend_on_other_channels_settings():
+    true, t = _true(1000)
+    a = SensorModel(noise_std={"p": 0.1}).apply(true, t, np.random.default_rng(1))
+    b = SensorModel(noise_std={"p": 0.1, "q": 0.5}).apply(true, t, np.random.default_rng(1))
+    assert np.array_equal(a["p"], b["p"])
+    assert not np.array_equal(a["q"], b["q"])
+
+
+def test_round_trip_and_scaling():
+    s = SensorModel(bias={"h": 3.0}, lag_s={"tas": 0.1})
+    assert SensorModel.from_dict(s.to_dict()) == s
+    half = s.scaled(noise=0.5, bias=0.0)
+    assert half.noise_std["ax"] == pytest.approx(0.5 * s.noise_std["ax"])
+    assert set(half.bias.values()) == {0.0}
+    assert half.lag_s == s.lag_s
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"noise_std": {"airspeed": 1.0}}, "unknown channel 'airspeed'"),
+    ({"noise_std": {"ax": -1.0}}, "noise_std of 'ax' must be a finite non-negative"),
+    ({"lag_s": {"ax": float("nan")}}, "lag_s of 'ax'"),
+    ({"bias": {"ax": float("inf")}}, "bias of 'ax' must be a finite number"),
+])
+def test_invalid_sensor_settings(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        SensorModel(**kwargs)
