@@ -1,0 +1,168 @@
+"""Versioned model files: .json and .npz round trips bit for bit, and clear errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from simplexspline import ModelFileError, SimplexSpline, SimplexSplineError, Triangulation
+
+from . import reference as ref
+from .cases import data_in_simplices, make_triangulation, seeded, smooth_function
+
+
+@pytest.fixture(scope="module", params=["delaunay", "grid"])
+def spline(request):
+    rng = seeded("io", request.param)
+    tri = make_triangulation(request.param, 3, rng)
+    x, _ = data_in_simplices(tri, 25, rng)
+    return SimplexSpline.fit(x, smooth_function(x), tri, 2, 1)
+
+
+@pytest.mark.parametrize("suffix", [".json", ".npz"])
+def test_round_trip_bit_for_bit(spline, tmp_path, suffix):
+    path = tmp_path / f"model{suffix}"
+    spline.save(path)
+    back = SimplexSpline.load(path)
+    assert back.degree == spline.degree and back.continuity == spline.continuity
+    np.testing.assert_array_equal(back.coefficients, spline.coefficients)
+    assert back.coefficients.dtype == spline.coefficients.dtype
+    np.testing.assert_array_equal(back.triangulation.vertices, spline.triangulation.vertices)
+    np.testing.assert_array_equal(back.triangulation.simplices, spline.triangulation.simplices)
+    rng = seeded("io-pred")
+    x, _ = data_in_simplices(spline.triangulation, 5, rng)
+    np.testing.assert_array_equal(back.predict(x), spline.predict(x))
+    np.testing.assert_array_equal(back.gradient(x), spline.gradient(x))
+    # saving the loaded model again gives the same bytes of content
+    path2 = tmp_path / f"again{suffix}"
+    back.save(path2)
+    again = SimplexSpline.load(path2)
+    np.testing.assert_array_equal(again.coefficients, spline.coefficients)
+
+
+def test_round_trip_extreme_values(tmp_path):
+    # values that a naive text format would round: subnormals, many digits, huge
+    tri = Triangulation.grid([0, 0], [1, 1], (1, 1))
+    coef = np.array([[np.pi, -1 / 3, 5e-324], [1e300, -0.1, 2.0 ** -1074 * 3]])
+    s = SimplexSpline(tri, 1, -1, coef)
+    for suffix in (".json", ".npz"):
+        s.save(tmp_path / f"m{suffix}")
+        back = SimplexSpline.load(tmp_path / f"m{suffix}")
+        np.testing.assert_array_equal(back.coefficients, coef)
+
+
+def test_json_header(spline, tmp_path):
+    path = tmp_path / "model.json"
+    spline.save(path)
+    doc = json.loads(path.read_text())
+    assert doc["format"] == "simplexspline.model"
+    assert doc["version"] == 1
+
+
+def test_npz_header_and_no_pickle(spline, tmp_path):
+    path = tmp_path / "model.npz"
+    spline.save(path)
+    with np.load(path, allow_pickle=False) as z:
+        header = json.loads(str(z["header"][()]) if z["header"].ndim == 0 else str(z["header"]))
+    assert header["format"] == "simplexspline.model"
+    assert header["version"] == 1
+
+
+@pytest.mark.parametrize("version", [2, 0, "1", None])
+def test_unknown_version_json(spline, tmp_path, version):
+    path = tmp_path / "model.json"
+    spline.save(path)
+    doc = json.loads(path.read_text())
+    doc["version"] = version
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ModelFileError, match="(?i)version"):
+        SimplexSpline.load(path)
+
+
+def test_unknown_version_npz(spline, tmp_path):
+    path = tmp_path / "model.npz"
+    spline.save(path)
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    raw = arrays["header"]
+    header = json.loads(str(raw[()]) if raw.ndim == 0 else str(raw))
+    header["version"] = 99
+    arrays["header"] = np.array(json.dumps(header))
+    np.savez(path, **arrays)
+    with pytest.raises(ModelFileError, match="(?i)version"):
+        SimplexSpline.load(path)
+
+
+def test_wrong_format_tag(spline, tmp_path):
+    path = tmp_path / "model.json"
+    spline.save(path)
+    doc = json.loads(path.read_text())
+    doc["format"] = "something.else"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ModelFileError, match="(?i)format|simplexspline"):
+        SimplexSpline.load(path)
+
+
+@pytest.mark.parametrize("suffix", [".json", ".npz"])
+def test_corrupt_files(spline, tmp_path, suffix):
+    path = tmp_path / f"model{suffix}"
+    spline.save(path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])  # truncated
+    with pytest.raises(ModelFileError):
+        SimplexSpline.load(path)
+    path.write_bytes(b"\x00\xffgarbage" * 10)
+    with pytest.raises(ModelFileError):
+        SimplexSpline.load(path)
+
+
+def test_inconsistent_content(spline, tmp_path):
+    path = tmp_path / "model.json"
+    spline.save(path)
+    text = path.read_text()
+    doc = json.loads(text)
+    x, _ = data_in_simplices(spline.triangulation, 3, seeded("io-keys"))
+    # dropping any top-level key: a ModelFileError, or (for optional keys) the same model;
+    # never a KeyError/AttributeError from deep inside
+    for key in [k for k in doc if k not in ("format", "version")]:
+        broken = json.loads(text)
+        del broken[key]
+        path.write_text(json.dumps(broken))
+        try:
+            back = SimplexSpline.load(path)
+        except ModelFileError:
+            continue
+        assert key not in ("degree", "continuity", "coefficients", "triangulation"), key
+        np.testing.assert_array_equal(back.predict(x), spline.predict(x))
+    # coefficients of the wrong size
+    broken = json.loads(text)
+    broken["coefficients"] = np.zeros((spline.triangulation.nsimplex, 3)).tolist()
+    path.write_text(json.dumps(broken))
+    with pytest.raises(ModelFileError):
+        SimplexSpline.load(path)
+    # a degree that does not match the coefficients
+    broken = json.loads(text)
+    broken["degree"] = spline.degree + 1
+    path.write_text(json.dumps(broken))
+    with pytest.raises(ModelFileError):
+        SimplexSpline.load(path)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ModelFileError, match="(?i)not found|no such|missing|exist"):
+        SimplexSpline.load(tmp_path / "nope.json")
+
+
+def test_unknown_suffix(spline, tmp_path):
+    with pytest.raises(SimplexSplineError, match="(?i)suffix|json|npz"):
+        spline.save(tmp_path / "model.txt")
+
+
+def test_constructed_spline_validates_coefficients():
+    tri = Triangulation.grid([0, 0], [1, 1], (1, 1))
+    from simplexspline import InputError
+
+    with pytest.raises(InputError, match="(?i)coefficients|shape"):
+        SimplexSpline(tri, 2, 1, np.zeros((2, ref.num_basis(2, 2) + 1)))
