@@ -9,7 +9,14 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from simplexspline import InputError, basis_values, bnet_points, de_casteljau, multi_indices, num_basis
+from simplexspline import (
+    InputError,
+    basis_values,
+    bnet_points,
+    de_casteljau,
+    multi_indices,
+    num_basis,
+)
 
 from . import reference as ref
 
@@ -160,3 +167,10 @@ def test_bform_invalid_arguments():
         multi_indices(0, 2)
     with pytest.raises(InputError, match="(?i)coefficient|shape|d_hat|length"):
         de_casteljau(np.ones(5), np.full((2, 3), 1 / 3))  # 5 is not C(d+2, 2) for any d
+
+
+def test_de_casteljau_row_count_mismatch():
+    with pytest.raises(InputError, match="(?i)shape|rows|points|match|length"):
+        de_casteljau(np.ones((3, 6)), np.full((4, 3), 1 / 3))
+    with pytest.raises(InputError, match="(?i)shape|barycentric|columns|n \\+ 1"):
+        basis_values(np.full((4, 3, 1), 1 / 3), 2)

@@ -59,31 +59,36 @@ def test_nan_inf_in_x_y_weights(setup, bad):
         SplineSpace(tri, 2, 1).normal_equations(xb, y)
 
 
+
+def _fit(t, x, y, **kw):
+    return SimplexSpline.fit(x, y, t, 2, 1, **kw)
+
+
+DIMENSION = "(?i)dimension|column|shape|ndim"
+ONE_D = "(?i)1-d|one-dimensional|shape|ndim"
+
 SHAPE_CASES = {
-    "x-3-columns-for-2-D": (lambda t, x, y, s: SimplexSpline.fit(np.hstack([x, x[:, :1]]), y, t, 2, 1),
-                            "(?i)dimension|column|shape|ndim"),
-    "y-too-short": (lambda t, x, y, s: SimplexSpline.fit(x, y[:-1], t, 2, 1),
-                    "(?i)length|rows|shape|match|same"),
-    "y-2-D": (lambda t, x, y, s: SimplexSpline.fit(x, y[:, None], t, 2, 1),
-              "(?i)1-d|one-dimensional|shape|ndim"),
-    "weights-wrong-length": (lambda t, x, y, s: SimplexSpline.fit(x, y, t, 2, 1, weights=np.ones(len(y) + 1)),
+    "x-3-columns-for-2-D": (lambda t, x, y, s: _fit(t, np.hstack([x, x[:, :1]]), y), DIMENSION),
+    "y-too-short": (lambda t, x, y, s: _fit(t, x, y[:-1]), "(?i)length|rows|shape|match|same"),
+    "y-2-D": (lambda t, x, y, s: _fit(t, x, y[:, None]), ONE_D),
+    "weights-wrong-length": (lambda t, x, y, s: _fit(t, x, y, weights=np.ones(len(y) + 1)),
                              "(?i)weight"),
-    "weights-negative": (lambda t, x, y, s: SimplexSpline.fit(x, y, t, 2, 1, weights=-np.ones(len(y))),
+    "weights-negative": (lambda t, x, y, s: _fit(t, x, y, weights=-np.ones(len(y))),
                          "(?i)weight|negative"),
-    "predict-3-columns": (lambda t, x, y, s: s.predict(np.zeros((4, 3))),
-                          "(?i)dimension|column|shape|ndim"),
-    "predict-1-D-array": (lambda t, x, y, s: s.predict(np.zeros(4)),
-                          "(?i)dimension|column|shape|ndim"),
+    "predict-3-columns": (lambda t, x, y, s: s.predict(np.zeros((4, 3))), DIMENSION),
+    "predict-1-D-array": (lambda t, x, y, s: s.predict(np.zeros(4)), DIMENSION),
     "derivative-order-length": (lambda t, x, y, s: s.derivative(x, (1,)), "(?i)order"),
-    "derivative-order-negative": (lambda t, x, y, s: s.derivative(x, (-1, 1)), "(?i)order|negative"),
-    "simplices-out-of-range": (lambda t, x, y, s: s.predict(x[:2], simplices=np.array([0, t.nsimplex])),
-                               "(?i)simplex|indices|range|index"),
+    "derivative-order-negative": (lambda t, x, y, s: s.derivative(x, (-1, 1)),
+                                  "(?i)order|negative"),
+    "simplices-out-of-range": (
+        lambda t, x, y, s: s.predict(x[:2], simplices=np.array([0, t.nsimplex])),
+        "(?i)simplex|indices|range|index"),
     "simplices-wrong-length": (lambda t, x, y, s: s.predict(x[:3], simplices=np.array([0, 1])),
                                "(?i)simplices|shape|length"),
-    "normal-equations-y-2-D": (lambda t, x, y, s: SplineSpace(t, 2, 1).normal_equations(x, y[:, None]),
-                               "(?i)1-d|one-dimensional|shape|ndim"),
-    "design-matrix-3-columns": (lambda t, x, y, s: SplineSpace(t, 2, 1).design_matrix(np.zeros((2, 3))),
-                                "(?i)dimension|column|shape|ndim"),
+    "normal-equations-y-2-D": (
+        lambda t, x, y, s: SplineSpace(t, 2, 1).normal_equations(x, y[:, None]), ONE_D),
+    "design-matrix-3-columns": (
+        lambda t, x, y, s: SplineSpace(t, 2, 1).design_matrix(np.zeros((2, 3))), DIMENSION),
 }
 
 
@@ -102,6 +107,10 @@ def test_merging_normal_equations_of_different_spaces(setup):
     b = SplineSpace(tri, 3, 1).normal_equations(x, y)
     with pytest.raises(InputError, match="(?i)degree|triangulation|match|compatible|different"):
         a + b
+    stretched = Triangulation(tri.vertices * 2.0, tri.simplices)
+    c = SplineSpace(stretched, 2, 1).normal_equations(2.0 * x, y)
+    with pytest.raises(InputError, match="(?i)triangulation|match|compatible|different"):
+        a + c
 
 
 @pytest.mark.parametrize("degree,continuity,pattern", [
@@ -148,7 +157,8 @@ def test_too_little_data_lists_simplices(setup):
 
 def test_empty_data(setup):
     tri, x, y = setup
-    with pytest.raises((InputError, InsufficientDataError), match="(?i)no data|empty|points|simplices"):
+    with pytest.raises((InputError, InsufficientDataError),
+                       match="(?i)no data|empty|points|simplices"):
         SimplexSpline.fit(x[:0], y[:0], tri, 1, 0)
 
 

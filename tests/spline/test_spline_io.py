@@ -13,7 +13,7 @@ from . import reference as ref
 from .cases import data_in_simplices, make_triangulation, seeded, smooth_function
 
 
-@pytest.fixture(scope="module", params=["delaunay", "grid"])
+@pytest.fixture(scope="module", params=["delaunay", "grid", "explicit", "fit"])
 def spline(request):
     rng = seeded("io", request.param)
     tri = make_triangulation(request.param, 3, rng)
@@ -111,10 +111,10 @@ def test_corrupt_files(spline, tmp_path, suffix):
     spline.save(path)
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])  # truncated
-    with pytest.raises(ModelFileError):
+    with pytest.raises(ModelFileError, match="(?i)corrupt|unreadable|invalid"):
         SimplexSpline.load(path)
     path.write_bytes(b"\x00\xffgarbage" * 10)
-    with pytest.raises(ModelFileError):
+    with pytest.raises(ModelFileError, match="(?i)corrupt|unreadable|invalid"):
         SimplexSpline.load(path)
 
 
@@ -132,7 +132,8 @@ def test_inconsistent_content(spline, tmp_path):
         path.write_text(json.dumps(broken))
         try:
             back = SimplexSpline.load(path)
-        except ModelFileError:
+        except ModelFileError as err:
+            assert str(path) in str(err)  # the message names the file
             continue
         assert key not in ("degree", "continuity", "coefficients", "triangulation"), key
         np.testing.assert_array_equal(back.predict(x), spline.predict(x))
@@ -140,14 +141,35 @@ def test_inconsistent_content(spline, tmp_path):
     broken = json.loads(text)
     broken["coefficients"] = np.zeros((spline.triangulation.nsimplex, 3)).tolist()
     path.write_text(json.dumps(broken))
-    with pytest.raises(ModelFileError):
+    with pytest.raises(ModelFileError, match="(?i)coefficients|shape|degree"):
         SimplexSpline.load(path)
     # a degree that does not match the coefficients
     broken = json.loads(text)
     broken["degree"] = spline.degree + 1
     path.write_text(json.dumps(broken))
-    with pytest.raises(ModelFileError):
+    with pytest.raises(ModelFileError, match="(?i)coefficients|shape|degree"):
         SimplexSpline.load(path)
+
+
+def test_wrong_suffix_content(spline, tmp_path):
+    npz = tmp_path / "model.npz"
+    spline.save(npz)
+    fake = tmp_path / "model.json"
+    fake.write_bytes(npz.read_bytes())  # an npz file with a .json name
+    with pytest.raises(ModelFileError, match="(?i)corrupt|unreadable|invalid|format"):
+        SimplexSpline.load(fake)
+    js = tmp_path / "other.json"
+    spline.save(js)
+    fake2 = tmp_path / "other.npz"
+    fake2.write_bytes(js.read_bytes())
+    with pytest.raises(ModelFileError, match="(?i)corrupt|unreadable|invalid|format"):
+        SimplexSpline.load(fake2)
+
+
+def test_path_as_string(spline, tmp_path):
+    path = str(tmp_path / "model.json")
+    spline.save(path)
+    np.testing.assert_array_equal(SimplexSpline.load(path).coefficients, spline.coefficients)
 
 
 def test_missing_file(tmp_path):

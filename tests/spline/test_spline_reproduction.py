@@ -225,3 +225,18 @@ def test_predict_no_points():
     tri, p, s = _global_quadratic_on_unit_square()
     assert s.predict(np.zeros((0, 2))).shape == (0,)
     assert s.gradient(np.zeros((0, 2))).shape == (0, 2)
+
+
+@pytest.mark.parametrize("d,r", [(3, 1), (2, 1), (5, 2)])
+def test_reproduction_on_fit_triangulation_with_holes(d, r):
+    """Triangulation.fit of clustered data drops simplices: a non-convex domain."""
+    rng = seeded("holes", d, r)
+    x0 = np.vstack([rng.normal([0.2, 0.2], 0.12, (300, 2)), rng.normal([0.8, 0.7], 0.1, (300, 2)),
+                    rng.uniform(0, 1, (40, 2)) * [1.0, 0.1]])
+    tri = Triangulation.fit(x0, (6, 6), min_points=2)
+    assert tri.nsimplex < 72
+    x, _ = data_in_simplices(tri, ref.num_basis(2, d) + 4, rng)
+    p = ref.Poly.random(2, d, rng, centre=[0.5, 0.5], exact=True)
+    s = SimplexSpline.fit(x, p(x), tri, d, r)
+    xt, _ = data_in_simplices(tri, 3, rng)
+    assert relative_error(s.predict(xt), p(xt)) <= 1e-9

@@ -86,7 +86,7 @@ def test_constrained_solution_equals_nullspace_and_kkt_references(n, d, r, kind)
     s = SplineSpace(tri, d, r).fit(x, y, weights=w)
     c = s.coefficients.ravel()
     X = ref.design_matrix(tri.vertices, tri.simplices, x, d, where=where)
-    H = ref.smoothness_matrix(tri.vertices, tri.simplices, d, r) if r >= 0 else np.zeros((0, X.shape[1]))
+    H = ref.smoothness_matrix(tri.vertices, tri.simplices, d, r)
     c_null = ref.nullspace_solution(X, y, H, w)
     assert np.linalg.norm(c - c_null) <= 1e-8 * np.linalg.norm(c_null)
     c_kkt = ref.kkt_solution(X, y, H, w)
@@ -99,7 +99,8 @@ def test_constrained_solution_equals_nullspace_and_kkt_references(n, d, r, kind)
     np.testing.assert_allclose(s3.coefficients, s.coefficients, rtol=1e-10, atol=1e-12)
 
 
-@pytest.mark.parametrize("n,d,r,kind", [(2, 3, 1, "grid"), (3, 2, 1, "explicit"), (1, 3, 2, "grid")])
+@pytest.mark.parametrize("n,d,r,kind",
+                         [(2, 3, 1, "grid"), (3, 2, 1, "explicit"), (1, 3, 2, "grid")])
 def test_zero_weight_sample_has_no_influence(n, d, r, kind):
     rng, tri, x, where, y, w = _problem(n, d, r, kind, "w0")
     base = SimplexSpline.fit(x, y, tri, d, r, weights=w)
@@ -132,7 +133,17 @@ def test_streaming_normal_equations_equal_one_shot(n, d, r, kind):
         assert ret is acc
     other = space.normal_equations(x[chunks[3]], y[chunks[3]], w[chunks[3]])
     other.add(x[chunks[4]], y[chunks[4]], w[chunks[4]])
+    acc_before = (acc.XtWX.copy(), acc.XtWy.copy(), acc.ytWy, acc.counts.copy())
+    other_before = (other.XtWX.copy(), other.counts.copy())
     merged = acc + other
+    # '+' returns a new object and leaves its operands alone
+    assert merged is not acc and merged is not other
+    np.testing.assert_array_equal(acc.XtWX, acc_before[0])
+    np.testing.assert_array_equal(acc.XtWy, acc_before[1])
+    assert acc.ytWy == acc_before[2]
+    np.testing.assert_array_equal(acc.counts, acc_before[3])
+    np.testing.assert_array_equal(other.XtWX, other_before[0])
+    np.testing.assert_array_equal(other.counts, other_before[1])
     for ne in (merged,):
         np.testing.assert_allclose(ne.XtWX, one.XtWX, rtol=1e-12, atol=1e-13)
         np.testing.assert_allclose(ne.XtWy, one.XtWy, rtol=1e-12, atol=1e-13)
@@ -169,9 +180,9 @@ def test_insufficient_data_raise_lists_simplices_and_counts():
     for j in (2, 5, 6):
         assert str(j) in msg
     # default policy is 'raise' everywhere
-    with pytest.raises(InsufficientDataError):
+    with pytest.raises(InsufficientDataError, match="(?i)simplex|simplices"):
         SplineSpace(tri, d, -1).fit(x, y)
-    with pytest.raises(InsufficientDataError):
+    with pytest.raises(InsufficientDataError, match="(?i)simplex|simplices"):
         SplineSpace(tri, d, -1).solve(SplineSpace(tri, d, -1).normal_equations(x, y))
 
 
@@ -196,7 +207,7 @@ def test_insufficient_data_uses_continuity():
     s = SimplexSpline.fit(x, y, tri, 1, 0)  # middle piece fixed by its two end values
     xt = np.linspace(0.01, 0.99, 30)[:, None]
     np.testing.assert_allclose(s.predict(xt), 2.0 * xt[:, 0] - 1.0, rtol=1e-9, atol=1e-9)
-    with pytest.raises(InsufficientDataError) as info:
+    with pytest.raises(InsufficientDataError, match="(?i)simplex|simplices") as info:
         SimplexSpline.fit(x, y, tri, 3, 0)
     np.testing.assert_array_equal(info.value.simplices, [1])
     np.testing.assert_array_equal(info.value.counts, [0])
@@ -290,7 +301,7 @@ def test_points_in_lower_dimensional_set_are_insufficient():
     np.testing.assert_array_equal(info.value.simplices, [j])
     np.testing.assert_array_equal(info.value.counts, [20])
     # linear pieces are determined by points on a line? no: still undetermined for d = 1
-    with pytest.raises(InsufficientDataError):
+    with pytest.raises(InsufficientDataError, match="(?i)simplex|simplices"):
         SimplexSpline.fit(x, y, tri, 1, -1)
     # with C^0 continuity a linear spline is determined (the other triangle fixes the edge)
     s = SimplexSpline.fit(x, y, tri, 1, 0)
@@ -303,3 +314,68 @@ def test_policies_agree_on_determined_problems(policy):
     base = SimplexSpline.fit(x, y, tri, 3, 1, weights=w)
     s = SplineSpace(tri, 3, 1).fit(x, y, weights=w, on_insufficient=policy)
     np.testing.assert_allclose(s.coefficients, base.coefficients, rtol=1e-9, atol=1e-11)
+
+
+def test_simplex_with_only_zero_weights_is_insufficient():
+    rng, tri, x, where, y, w = _problem(2, 2, -1, "grid", "allzero")
+    w = w.copy()
+    w[where == 3] = 0.0
+    with pytest.raises(InsufficientDataError, match="(?i)simplex|simplices") as info:
+        SimplexSpline.fit(x, y, tri, 2, -1, weights=w)
+    np.testing.assert_array_equal(info.value.simplices, [3])
+
+
+def test_solve_rejects_normal_equations_of_another_space():
+    rng, tri, x, where, y, w = _problem(2, 2, 1, "grid", "otherspace")
+    ne = SplineSpace(tri, 2, 1).normal_equations(x, y)
+    other = Triangulation.grid([0, 0], [1, 1], (3, 3))
+    with pytest.raises(InputError, match="(?i)triangulation|degree|space|match|different"):
+        SplineSpace(other, 2, 1).solve(ne)
+    with pytest.raises(InputError, match="(?i)triangulation|degree|space|match|different"):
+        SplineSpace(tri, 3, 1).solve(ne)
+    # same number of simplices, different geometry: must not be solved silently
+    stretched = Triangulation(tri.vertices * 2.0, tri.simplices)
+    with pytest.raises(InputError, match="(?i)triangulation|space|match|different"):
+        SplineSpace(stretched, 2, 1).solve(ne)
+
+
+def test_fit_triangulation_with_min_points_above_data_size():
+    x = seeded("minpts").uniform(size=(20, 2))
+    from simplexspline import SimplexSplineError
+
+    with pytest.raises(SimplexSplineError, match="(?i)min_points|no simplex|empty|points"):
+        Triangulation.fit(x, (2, 2), min_points=100)
+
+
+@pytest.mark.parametrize("n,d,r,kind", [(3, 4, -1, "explicit"), (2, 5, -1, "grid"),
+                                         (2, 3, 1, "grid"), (3, 2, 1, "grid")])
+def test_weights_spanning_six_decades(n, d, r, kind):
+    """d_hat + 5 random points per simplex and weights 10^U(-3, 3): the data determine the
+    spline (ill-conditioned, not singular), so the fit must succeed and be RSS-optimal."""
+    rng = seeded("probe", n, d, r, kind)
+    tri = make_triangulation(kind, n, rng)
+    x, where = data_in_simplices(tri, ref.num_basis(n, d) + 5, rng)
+    y = smooth_function(2 * x) + 0.05 * rng.standard_normal(len(x))
+    w = 10 ** rng.uniform(-3, 3, len(x))
+    s = SimplexSpline.fit(x, y, tri, d, r, weights=w)
+    X = ref.design_matrix(tri.vertices, tri.simplices, x, d, where=where)
+    H = ref.smoothness_matrix(tri.vertices, tri.simplices, d, r)
+    c_ref = ref.nullspace_solution(X, y, H, w)
+    rss = lambda c: float(np.sum(w * (y - X @ c) ** 2))  # noqa: E731
+    assert rss(s.coefficients.ravel()) <= rss(c_ref) * (1 + 1e-6)
+
+
+def test_insufficient_error_always_names_simplices():
+    """Whatever triggers it, an InsufficientDataError lists the offending simplices."""
+    rng = seeded("names")
+    tri = Triangulation.grid([0, 0, 0], [1, 1, 1], (1, 1, 1))
+    for d, r, per in [(2, -1, 5), (3, 1, 4), (2, 0, 3), (4, -1, 30)]:
+        x, where = data_in_simplices(tri, per, rng)
+        x = x[where != 2]
+        try:
+            SimplexSpline.fit(x, smooth_function(x), tri, d, r)
+        except InsufficientDataError as err:
+            assert err.simplices.size > 0, (d, r, str(err))
+            assert len(err.counts) == len(err.simplices)
+            for j in err.simplices[:5]:
+                assert str(j) in str(err)

@@ -23,7 +23,9 @@ from simplexspline import (
 from . import reference as ref
 from .cases import KINDS, expected_nsimplex, make_triangulation, seeded
 
-SMALL = [(kind, n) for kind in KINDS for n in range(1, 7) if not (kind in ("grid", "fit") and n == 6)]
+SMALL = [
+    (kind, n) for kind in KINDS for n in range(1, 7) if not (kind in ("grid", "fit") and n == 6)
+]
 
 
 def _ids(params):
@@ -334,7 +336,8 @@ def test_locate_vertices_and_facet_points(kind, n):
 
 def test_delaunay_of_degenerate_point_sets_raises():
     collinear = np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [3.0, 3.0]])
-    with pytest.raises(SimplexSplineError, match="(?i)degenerate|collinear|coplanar|flat|volume|dimension"):
+    pattern = "(?i)degenerate|collinear|coplanar|flat|volume|dimension"
+    with pytest.raises(SimplexSplineError, match=pattern):
         Triangulation.delaunay(collinear)
     with pytest.raises(SimplexSplineError, match="(?i)points|few|at least"):
         Triangulation.delaunay(np.array([[0.0, 0.0], [1.0, 0.0]]))
@@ -342,5 +345,6 @@ def test_delaunay_of_degenerate_point_sets_raises():
 
 def test_fit_flat_bounding_box_raises():
     x = np.column_stack([np.linspace(0, 1, 20), np.full(20, 0.5)])  # no extent along axis 1
-    with pytest.raises(SimplexSplineError, match="(?i)box|extent|range|constant|lower|upper|flat|degenerate|spread"):
+    pattern = "(?i)box|extent|range|constant|lower|upper|flat|degenerate|spread"
+    with pytest.raises(SimplexSplineError, match=pattern):
         Triangulation.fit(x, (2, 2))

@@ -243,6 +243,9 @@ def de_casteljau(c: np.ndarray, b: np.ndarray) -> np.ndarray:
     """
     c = np.asarray(c, dtype=float)
     b = np.asarray(b, dtype=float)
+    if b.ndim != 2 or c.ndim not in (1, 2) or (c.ndim == 2 and c.shape[0] != b.shape[0]):
+        raise InputError(f"de_casteljau needs c of shape (N, d_hat) or (d_hat,) and b of shape "
+                         f"(N, n+1) with matching rows, got {c.shape} and {b.shape}")
     n = b.shape[-1] - 1
     dhat = c.shape[-1]
     d = _degree_of(n, dhat)

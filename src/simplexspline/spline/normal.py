@@ -125,10 +125,18 @@ class NormalEquations:
             self.XtWX[j] += bw[:, s:e] @ bt[:, s:e].T
             self.XtWy[j] += bt[:, s:e] @ wv[s:e]
 
+    def check_space(self, triangulation, degree: int) -> None:
+        """Raise InputError unless these blocks belong to ``triangulation`` and ``degree``."""
+        if degree != self.degree:
+            raise InputError(f"normal equations of degree {self.degree} do not match a spline "
+                             f"space of degree {degree}")
+        if not self.triangulation.same_as(triangulation):
+            raise InputError("the normal equations were accumulated on a different "
+                             "triangulation than this spline space's")
+
     def merge(self, other: NormalEquations) -> NormalEquations:
         """Add another accumulator (same triangulation and degree) into this one."""
-        if other.XtWX.shape != self.XtWX.shape or other.degree != self.degree:
-            raise InputError("cannot merge normal equations of different spline spaces")
+        self.check_space(other.triangulation, other.degree)
         self.XtWX += other.XtWX
         self.XtWy += other.XtWy
         self.ytWy += other.ytWy

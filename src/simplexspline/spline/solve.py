@@ -36,9 +36,11 @@ __all__ = ["solve_constrained", "SolveInfo", "POLICIES"]
 #: What to do when data and continuity leave coefficients undetermined.
 POLICIES = ("raise", "minnorm", "ridge")
 
-#: An eigenvalue of a simplex's Gram block below this fraction of the block's largest
-#: (or of the largest block's, for empty blocks) counts as a direction without data.
-NULL_TOL = 1e-10
+#: An eigenvalue of a simplex's Gram block below NULL_TOL * d_hat * machine epsilon times
+#: the block's largest (or, for empty blocks, the mean diagonal) counts as a direction
+#: without data: round-off level, so that badly conditioned but determined blocks (e.g.
+#: weights spanning many decades) are not mistaken for undetermined ones.
+NULL_TOL = 100.0
 
 #: Default relative ridge weight for ``on_insufficient='ridge'``.
 DEFAULT_RIDGE = 1e-6
@@ -122,7 +124,7 @@ def _null_directions(Q: np.ndarray, counts: np.ndarray):
     top = lam[:, -1]
     ref = np.where(top > 0, top, max(float(np.einsum("jkk->", Q)) / max(nsimp * dhat, 1),
                                      1e-300))
-    null = lam <= NULL_TOL * ref[:, None]
+    null = lam <= NULL_TOL * dhat * np.finfo(float).eps * ref[:, None]
     bs, ks = np.nonzero(null)
     js = suspect[bs]
     rows = (js[:, None] * dhat + np.arange(dhat)[None, :]).ravel()
@@ -227,6 +229,10 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
     diag_mean = float(np.einsum("jkk->", Q) / max(int((ne.counts > 0).sum()) * dhat, 1))
     lam = float(ridge or 0.0) * diag_mean
     gather, M = system.gather, system.nglobal
+    if M == nsimp * dhat and system.A_all.shape[0] == 0 and (Zu.shape[1] == 0 or lam):
+        # No continuity (r = -1): independent dense blocks, solved directly.
+        coef = _solve_blocks(Q + lam * np.eye(dhat), q)
+        return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
     # G'QG and G'q, assembled sparse from the blocks.
     loc = np.arange(nsimp * dhat).reshape(nsimp, dhat)
     gi = gather[loc]
@@ -246,18 +252,36 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
         A = sp.vstack([A, ZG]).tocsr()
     g = _al_solve(Qg.tocsc(), qg, A, diag_mean)
     coef = g[gather].reshape(nsimp, dhat)
+    return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
+
+
+def _solve_blocks(Q: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Solve J independent d_hat x d_hat systems (with two refinement steps)."""
+    try:
+        coef = np.linalg.solve(Q, q[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        raise InsufficientDataError(
+            "a simplex's normal equations are singular: use on_insufficient='minnorm' or "
+            "'ridge'") from None
+    for _ in range(2):
+        res = q - np.einsum("jkl,jl->jk", Q, coef)
+        coef = coef + np.linalg.solve(Q, res[..., None])[..., 0]
+    return coef
+
+
+def _info(ne, coef, deficient, under, Zu, policy, lam) -> SolveInfo:
+    Q, q = ne.XtWX, ne.XtWy
     rss = float(ne.ytWy - 2.0 * np.einsum("jk,jk->", coef, q)
                 + np.einsum("jk,jkl,jl->", coef, Q, coef))
-    info = SolveInfo(
+    return SolveInfo(
         counts=ne.counts.copy(),
         deficient_simplices=deficient,
         undetermined_simplices=under,
         n_undetermined=int(Zu.shape[1]),
-        policy=on_insufficient,
+        policy=policy,
         ridge=lam,
         rss=max(rss, 0.0),
     )
-    return coef, info
 
 
 #: Regularisation of the factorised KKT matrix, relative to the mean diagonal of G'QG:
@@ -265,18 +289,20 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
 #: then quasi-definite (factorisable without pivoting in any symmetric order); iterative
 #: refinement against the exact KKT system removes the regularisation's effect.
 KKT_SIGMA = 1e-10
-KKT_DELTA = 1e-10
+KKT_DELTA = 1e-8
 REFINE_MAXITER = 40
 
 
 def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float) -> np.ndarray:
     """Minimise g'Qg g/2 - qg'g subject to A g = 0 (A may be rank deficient).
 
-    Factorises the regularised, quasi-definite KKT matrix [Qg + sigma I, A'; A, -delta I]
-    once and refines against the exact KKT system [Qg A'; A 0]. This is the method of
-    multipliers (penalty 1/delta) with proximal regularisation; it converges to the exact
-    constrained minimiser when that is unique, whether or not A has full row rank, without
-    forming the ill-conditioned Qg + A'A/delta.
+    Preconditioner: the regularised KKT matrix [Qg + sigma I, A'; A, -delta I], applied
+    through its condensed form P = Qg + sigma I + A'A/delta (an M x M sparse symmetric
+    positive definite matrix, factorised once), or, when there are few conditions, as a
+    whole. Iterative refinement (then GMRES if that stalls) against the exact KKT system
+    [Qg A'; A 0] removes the regularisation: this is the method of multipliers with
+    penalty 1/delta and converges to the exact constrained minimiser whenever it is unique,
+    whether or not A has full row rank.
     """
     singular = InsufficientDataError(
         "the constrained least-squares system is singular: the data do not determine the "
@@ -290,43 +316,69 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float)
     else:
         K = Qg.tocsc()
     rhs = np.concatenate([qg, np.zeros(m)])
-    # Fast path: quasi-definite, factorised without pivoting. Fallback (e.g. G'QG singular
-    # along many directions that only the constraints fix): threshold partial pivoting.
-    for sigma, pivot in ((KKT_SIGMA, 0.0), (0.0, 0.1)):
-        reg = np.concatenate([np.full(M, sigma * scale), np.full(m, -KKT_DELTA * scale)])
-        Kd = (K + sp.diags(reg)).tocsc()
-        try:
-            lu = spla.splu(Kd, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=pivot,
-                           options={"SymmetricMode": True})
-        except RuntimeError:
+    delta = KKT_DELTA * scale
+    for sigma in (KKT_SIGMA * scale, 0.0):
+        pre = _preconditioner(Qg, A, sigma, delta)
+        if pre is None:
             continue
-        z = _refine(lu, K, rhs, M)
+        z = _refine(pre, K, rhs, M)
         if z is not None:
             return z[:M]
     raise singular
 
 
-def _refine(lu, K, rhs, M):
-    """Solve K z = rhs from an approximate factorisation of K: iterative refinement, then
-    (if that converges slowly, e.g. with nearly dependent conditions) GMRES preconditioned
-    by the factorisation. Returns None when neither converges."""
-    z = lu.solve(rhs)
-    last = np.inf
-    step = np.inf
-    for _ in range(REFINE_MAXITER):
-        dz = lu.solve(rhs - K @ z)
-        z += dz
-        step = np.abs(dz[:M]).max() / max(np.abs(z[:M]).max(), 1e-300)
-        if step <= 1e-14 or step >= 0.5 * last or not np.isfinite(step):
-            break
-        last = step
-    if np.isfinite(step) and step > 1e-12:
-        pre = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
-        z2, flag = spla.gmres(K, rhs, x0=z, M=pre, rtol=1e-14, atol=0.0, restart=60,
-                              maxiter=20)
-        if np.all(np.isfinite(z2)):
-            step = np.abs(lu.solve(rhs - K @ z2)[:M]).max() / max(np.abs(z2[:M]).max(), 1e-300)
-            z = z2
+def _preconditioner(Qg, A, sigma: float, delta: float):
+    """Solver for the regularised KKT matrix, or None when it cannot be factorised."""
+    M, m = Qg.shape[0], A.shape[0]
+    opts = {"permc_spec": "MMD_AT_PLUS_A", "options": {"SymmetricMode": True}}
+    try:
+        if m == 0:
+            lu = spla.splu((Qg + sigma * sp.eye(M)).tocsc(), diag_pivot_thresh=0.0, **opts)
+            return lu.solve
+        if sigma > 0:
+            # Condensed: eliminate the multipliers, nu = (A g - r2) / delta.
+            rho = 1.0 / delta
+            At = A.T.tocsr()
+            P = (Qg + sigma * sp.eye(M) + rho * (At @ A)).tocsc()
+            lu = spla.splu(P, diag_pivot_thresh=0.0, **opts)
+
+            def solve(r):
+                r1, r2 = r[:M], r[M:]
+                dg = lu.solve(r1 + rho * (At @ r2))
+                return np.concatenate([dg, rho * (A @ dg - r2)])
+
+            return solve
+        # Fallback (G'QG singular along directions only the constraints fix): the whole
+        # regularised KKT matrix with threshold partial pivoting.
+        Kd = sp.bmat([[Qg, A.T], [A, -delta * sp.eye(m)]], format="csc")
+        return spla.splu(Kd, diag_pivot_thresh=0.1, **opts).solve
+    except RuntimeError:
+        return None
+
+
+def _refine(solve, K, rhs, M):
+    """Solve K z = rhs with an approximate inverse ``solve``: iterative refinement, then
+    (if that converges slowly, e.g. with nearly dependent conditions) preconditioned GMRES.
+    Returns None when neither converges."""
+    with np.errstate(all="ignore"):
+        z = solve(rhs)
+        last = np.inf
+        step = np.inf
+        for _ in range(REFINE_MAXITER):
+            dz = solve(rhs - K @ z)
+            z += dz
+            step = np.abs(dz[:M]).max() / max(np.abs(z[:M]).max(), 1e-300)
+            if step <= 1e-14 or step >= 0.5 * last or not np.isfinite(step):
+                break
+            last = step
+        if np.isfinite(step) and step > 1e-12:
+            pre = spla.LinearOperator(K.shape, matvec=solve, dtype=float)
+            z2, _ = spla.gmres(K, rhs, x0=z, M=pre, rtol=1e-14, atol=0.0, restart=60,
+                               maxiter=20)
+            if np.all(np.isfinite(z2)):
+                step = np.abs(solve(rhs - K @ z2)[:M]).max() / max(np.abs(z2[:M]).max(),
+                                                                   1e-300)
+                z = z2
     if not np.all(np.isfinite(z)) or step > 1e-8:
         return None
     return z

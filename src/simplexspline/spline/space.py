@@ -7,7 +7,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from simplexspline.errors import OutsideDomainError
+from simplexspline.errors import InputError, OutsideDomainError
 from simplexspline.spline.bform import basis_values, num_basis
 from simplexspline.spline.continuity import (
     SmoothnessSystem,
@@ -137,6 +137,10 @@ class SplineSpace:
         """
         from simplexspline.spline.spline import SimplexSpline
 
+        if not isinstance(normal_equations, NormalEquations):
+            raise InputError("solve() takes a NormalEquations accumulator "
+                             "(from SplineSpace.normal_equations)")
+        normal_equations.check_space(self.triangulation, self.degree)
         coef, info = solve_constrained(normal_equations, self.system,
                                        on_insufficient=on_insufficient, ridge=ridge)
         return SimplexSpline(self.triangulation, self.degree, self.continuity, coef,

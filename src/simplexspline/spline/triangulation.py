@@ -279,6 +279,15 @@ class Triangulation:
         c.setflags(write=False)
         return c
 
+    def same_as(self, other) -> bool:
+        """True when ``other`` is this triangulation or one with identical arrays."""
+        return self is other or (
+            isinstance(other, Triangulation)
+            and self.vertices.shape == other.vertices.shape
+            and self.simplices.shape == other.simplices.shape
+            and np.array_equal(self.vertices, other.vertices)
+            and np.array_equal(self.simplices, other.simplices))
+
     def __repr__(self) -> str:
         return f"Triangulation(kind={self.kind!r}, ndim={self.ndim}, nsimplex={self.nsimplex})"
 
