@@ -17,7 +17,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -26,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline.errors import FlightDataError, InputError
+from simplexspline.spline.io import atomic_write
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -393,18 +393,6 @@ def _format(path: Path) -> str:
                      "use .parquet (preferred) or .csv")
 
 
-def _atomic_write(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def write_flight_data(df, path: str | os.PathLike, metadata: Mapping | None = None) -> Path:
     """Validate and write flight data atomically (temporary file + ``os.replace``).
 
@@ -452,12 +440,12 @@ def write_flight_data(df, path: str | os.PathLike, metadata: Mapping | None = No
         # dictionary-encode only labels and ids: trying it on float columns costs time
         # and gains nothing for sensor data
         labels = [c for c in plain.columns if not pd.api.types.is_float_dtype(plain[c].dtype)]
-        _atomic_write(path, lambda tmp: pq.write_table(table, tmp, use_dictionary=labels))
+        atomic_write(path, lambda tmp: pq.write_table(table, tmp, use_dictionary=labels))
     else:
-        _atomic_write(path, lambda tmp: plain.to_csv(tmp, index=False, float_format="%.17g"))
+        atomic_write(path, lambda tmp: plain.to_csv(tmp, index=False, float_format="%.17g"))
         side = sidecar_path(path)
         text = json.dumps(meta, default=_json_default, indent=1)
-        _atomic_write(side, lambda tmp: Path(tmp).write_text(text))
+        atomic_write(side, lambda tmp: Path(tmp).write_text(text))
     return path
 
 

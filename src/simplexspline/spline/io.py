@@ -24,6 +24,7 @@ Both are written atomically: to a temporary file in the target directory, then r
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import tempfile
@@ -40,22 +41,31 @@ FORMAT = "simplexspline.model"
 VERSION = 1
 
 
-def atomic_write(path: Path, write) -> None:
-    """Call ``write(fileobj)`` on a temporary file next to ``path``, then rename it."""
+def atomic_write(path, write) -> None:
+    """Call ``write(tmp_path)`` for a temporary file next to ``path``, then rename it.
+
+    A failed or interrupted write never leaves a partial file at ``path`` (nor the
+    temporary file).
+    """
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
+        write(tmp)
         os.replace(tmp, path)
     except BaseException:
-        try:
+        if os.path.exists(tmp):
             os.unlink(tmp)
-        except FileNotFoundError:
-            pass
         raise
+
+
+def _write_bytes(data: bytes):
+    def write(tmp):
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    return write
 
 
 def _header(spline) -> dict:
@@ -95,11 +105,13 @@ def save_spline(spline, path) -> Path:
         doc["triangulation"] = {k: v.tolist() for k, v in arrays.items()}
         doc["coefficients"] = spline.coefficients.tolist()
         data = json.dumps(doc, allow_nan=False).encode()
-        atomic_write(path, lambda fh: fh.write(data))
+        atomic_write(path, _write_bytes(data))
     else:
         arrays["coefficients"] = spline.coefficients
         arrays["header"] = np.array(json.dumps(header, allow_nan=False))
-        atomic_write(path, lambda fh: np.savez(fh, **arrays))
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        atomic_write(path, _write_bytes(buf.getvalue()))
     return path
 
 
