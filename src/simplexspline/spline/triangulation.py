@@ -499,8 +499,12 @@ class Triangulation:
         return out
 
     @classmethod
-    def from_arrays(cls, data: dict) -> Triangulation:
-        """Inverse of :meth:`to_arrays`."""
+    def from_arrays(cls, data: dict, *, check: bool = True) -> Triangulation:
+        """Inverse of :meth:`to_arrays`.
+
+        ``check=False`` skips the (costly) conformity checks of explicit triangulations,
+        for arrays that come from a triangulation already validated.
+        """
         grid = None
         if "grid_table" in data:
             grid = {
@@ -522,7 +526,7 @@ class Triangulation:
                     or int((table >= 0).sum()) != nsimp):
                 raise InputError("the grid location table does not match the triangulation")
         return cls(data["vertices"], data["simplices"], _kind=kind, _grid=grid,
-                   _check=grid is None)
+                   _check=check and grid is None)
 
 
 def _ids(ids, most: int = 10) -> str:
