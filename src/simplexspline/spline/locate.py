@@ -66,6 +66,15 @@ class GridLocator:
 
     def locate(self, x: np.ndarray) -> np.ndarray:
         """Simplex index of each point, ``-1`` outside; x has shape (N, n)."""
+        from simplexspline.spline import kernels
+
+        if kernels.HAVE_NUMBA and len(x) > 0:
+            return kernels.grid_locate(x, self.lower, self.step, self.shape, self.table,
+                                       self._nfact, INSIDE_TOL)
+        return self.locate_numpy(x)
+
+    def locate_numpy(self, x: np.ndarray) -> np.ndarray:
+        """The numpy implementation of :meth:`locate`."""
         npts, n = x.shape
         rel = (x - self.lower) / self.step
         tol = INSIDE_TOL * self.shape

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from simplexspline.errors import InputError, OutsideDomainError
+from simplexspline.spline import kernels
 from simplexspline.spline.bform import basis_values_t, num_basis
 from simplexspline.spline.validation import as_points, as_values, as_weights
 
@@ -104,7 +105,10 @@ class NormalEquations:
         pts = pts[order]
         vals = vals[order]
         b = tri._locator_barycentric(pts, sid)
-        bt = basis_values_t(b.T, self.degree)  # (d_hat, N)
+        if kernels.HAVE_NUMBA:
+            bt = kernels.basis_cols(b.T, self.degree)  # (d_hat, N)
+        else:
+            bt = basis_values_t(b.T, self.degree)  # (d_hat, N)
         nsimp = tri.nsimplex
         counts = np.bincount(sid, minlength=nsimp)
         self.counts += counts

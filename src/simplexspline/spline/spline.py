@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline.errors import InputError, OutsideDomainError
+from simplexspline.spline import kernels
 from simplexspline.spline.barycentric import direction_coordinates
 from simplexspline.spline.bform import basis_values_t, de_casteljau_step, num_basis
 from simplexspline.spline.validation import as_points, check_degree
@@ -128,6 +129,12 @@ class SimplexSpline:
         -------
         ndarray, shape (N,)
         """
+        if kernels.HAVE_NUMBA:
+            pts, sid, valid = self._prepare(x, outside, simplices)
+            sid = np.where(valid, sid, -1)
+            tri = self.triangulation
+            return kernels.evaluate(pts, sid, tri._origin, tri._tinv, self.coefficients,
+                                    self.degree)
         return self.derivative(x, (0,) * self.ndim, outside=outside, simplices=simplices)
 
     __call__ = predict

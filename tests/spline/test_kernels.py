@@ -1,0 +1,47 @@
+"""The optional compiled kernels give the same numbers as the numpy implementations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from simplexspline import SplineSpace, Triangulation
+from simplexspline.spline import kernels
+from simplexspline.spline.bform import basis_values_t
+
+pytestmark = pytest.mark.skipif(not kernels.HAVE_NUMBA, reason="numba not installed")
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5])
+def test_grid_locate_matches_numpy(n):
+    rng = np.random.default_rng(n)
+    shape = (3, 2, 2, 1, 1)[:n]
+    tri = Triangulation.fit(rng.random((400, n)) ** 2, shape, min_points=2)
+    loc = tri._locator
+    lattice = np.stack(np.meshgrid(*[np.linspace(-0.25, 1.25, 7)] * n), -1).reshape(-1, n)
+    x = np.vstack([rng.uniform(-0.1, 1.1, (3000, n)), lattice, loc.lower, loc.upper])
+    np.testing.assert_array_equal(loc.locate(x), loc.locate_numpy(x))
+
+
+@pytest.mark.parametrize("n,d", [(1, 1), (2, 3), (3, 4), (5, 3), (6, 2)])
+def test_basis_cols_matches_numpy(n, d):
+    b = np.random.default_rng(d).dirichlet(np.ones(n + 1), 700).T
+    np.testing.assert_allclose(kernels.basis_cols(b, d), basis_values_t(b, d), rtol=1e-14,
+                               atol=1e-15)
+
+
+def test_fit_and_predict_identical_to_numpy_path(monkeypatch):
+    rng = np.random.default_rng(7)
+    tri = Triangulation.grid(np.zeros(3), np.ones(3), (2, 2, 2))
+    x = rng.random((5000, 3))
+    y = np.sin(3 * x[:, 0]) + x[:, 1] * x[:, 2]
+    space = SplineSpace(tri, 3, 1)
+    fast = space.fit(x, y)
+    xe = rng.uniform(-0.1, 1.1, (2000, 3))
+    pf = fast.predict(xe)
+    monkeypatch.setattr(kernels, "HAVE_NUMBA", False)
+    slow = space.fit(x, y)
+    ps = slow.predict(xe)
+    np.testing.assert_allclose(fast.coefficients, slow.coefficients, rtol=1e-11, atol=1e-12)
+    np.testing.assert_array_equal(np.isnan(pf), np.isnan(ps))
+    np.testing.assert_allclose(pf[~np.isnan(pf)], ps[~np.isnan(ps)], rtol=1e-12, atol=1e-13)
