@@ -126,8 +126,12 @@ class NormalEquations:
         ends = np.cumsum(counts)
         for j in np.nonzero(counts)[0]:
             s, e = ends[j] - counts[j], ends[j]
-            self.XtWX[j] += bw[:, s:e] @ bt[:, s:e].T
-            self.XtWy[j] += bt[:, s:e] @ wv[s:e]
+            # A contiguous copy of the block makes the BLAS product 2-3x faster than on
+            # the strided slice; the copy costs one pass over memory.
+            xj = np.ascontiguousarray(bt[:, s:e])
+            xw = xj if w is None else np.ascontiguousarray(bw[:, s:e])
+            self.XtWX[j] += xw @ xj.T
+            self.XtWy[j] += xj @ wv[s:e]
 
     def check_space(self, triangulation, degree: int) -> None:
         """Raise InputError unless these blocks belong to ``triangulation`` and ``degree``."""
