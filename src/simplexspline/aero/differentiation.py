@@ -1,0 +1,103 @@
+"""Smoothed numerical differentiation of sampled signals (angular accelerations from rates).
+
+Method: a local least-squares polynomial (Savitzky-Golay) derivative over an even window of
+``2 m`` samples centred on the *midpoint* ``t_k + dt/2`` between samples k and k + 1. For
+signals that are polynomials of degree <= ``degree`` inside the window it is exact. With
+``m = 1`` it is the forward difference ``(x[k+1] - x[k]) / dt``, the convention of the
+flight-data schema (JSBSim integrates the rates with explicit Euler, so ``pdot[k]`` is the
+forward difference of ``p``).
+
+Phase lag: the window is symmetric about the point where the derivative is wanted, so the
+filter has **zero phase lag** with respect to the forward-difference convention (a constant
+lead of ``dt / 2`` with respect to sample time ``t_k``, which is exactly the convention).
+The price is amplitude attenuation at high frequency. For the defaults (m = 8, i.e. a
+16-sample window of 0.16 s at 100 Hz, degree 4) the derivative's gain is -3 dB at 7.9 Hz
+and the white-noise gain is 0.097 times that of the forward difference; m = 12 with
+degree 2 would give 2.4 Hz and 0.021 (smoother but it flattens 3211 pulses: 1.5 % relative
+RMS error in Cm on noise-free simulated data, against 0.13 % for the defaults). Near the ends of the
+record the window is shifted inside the data (one-sided fits), which keeps the degree but
+not the zero phase.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simplexspline.errors import InputError
+
+__all__ = ["midpoint_derivative", "derivative_weights"]
+
+
+def derivative_weights(positions: np.ndarray, at: float, degree: int) -> np.ndarray:
+    """Weights w such that ``sum(w * x)`` is the derivative at ``at`` of the LS polynomial.
+
+    Parameters
+    ----------
+    positions : (k,) ndarray
+        Sample positions in units of the sample interval.
+    at : float
+        Where the derivative is wanted (same units).
+    degree : int
+        Polynomial degree (< k).
+    """
+    s = np.asarray(positions, dtype=float) - at
+    V = np.vander(s, degree + 1, increasing=True)       # columns 1, s, s^2, ...
+    # derivative at s = 0 is the coefficient of s: second row of the pseudo-inverse
+    return np.linalg.pinv(V)[1]
+
+
+def midpoint_derivative(x, dt: float, half_window: int = 8, degree: int = 4) -> np.ndarray:
+    """Smoothed derivative of a uniformly sampled signal, in the forward-difference convention.
+
+    Parameters
+    ----------
+    x : (n,) array_like
+        Samples (finite).
+    dt : float
+        Sample interval [s].
+    half_window : int
+        m: the fit uses 2 m samples (k - m + 1 .. k + m). 1 gives the plain forward
+        difference.
+    degree : int
+        Polynomial degree of the local fit (reduced to 2 m - 1 when larger).
+
+    Returns
+    -------
+    (n,) ndarray
+        Derivative estimate at ``t_k + dt / 2`` for k = 0 .. n - 1 (the last sample uses the
+        one-sided fit at ``t_{n-1} + dt/2``). Units of x per second.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(50) * 0.01
+    >>> d = midpoint_derivative(t**2, 0.01, half_window=4)
+    >>> bool(np.allclose(d, 2 * (t + 0.005)))
+    True
+    """
+    x = np.asarray(x, dtype=float)
+    m = int(half_window)
+    if m < 1 or degree < 1:
+        raise InputError(f"need half_window >= 1 and degree >= 1; got "
+                         f"half_window={half_window}, degree={degree}")
+    degree = min(int(degree), 2 * m - 1)
+    n = x.size
+    if n < 2:
+        raise InputError(f"need at least 2 samples to differentiate, got {n}")
+    w = 2 * m
+    if n < w:
+        m = n // 2
+        w = 2 * m if n >= 2 * m else n
+        degree = min(degree, w - 1)
+    out = np.empty(n)
+    pos = np.arange(w, dtype=float)
+    centre = derivative_weights(pos, m - 0.5, degree) / dt
+    # interior: output k uses x[k-m+1 .. k+m]
+    if n >= w:
+        conv = np.convolve(x, centre[::-1], mode="valid")   # length n - w + 1
+        out[m - 1:n - m] = conv
+    for k in list(range(0, m - 1)) + list(range(n - m, n)):
+        start = min(max(k - m + 1, 0), n - w)
+        wk = derivative_weights(pos, k + 0.5 - start, degree) / dt
+        out[k] = wk @ x[start:start + w]
+    return out

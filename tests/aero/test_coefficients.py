@@ -1,0 +1,104 @@
+"""Eq. 43-48, non-dimensional rates, thrust handling and smoothed differentiation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from simplexspline.aero import aerodynamic_coefficients, angular_accelerations, midpoint_derivative
+from simplexspline.aero.coefficients import COEFFICIENT_NAMES, THRUST_COLUMNS
+from simplexspline.errors import FlightDataError, InputError
+
+
+def relative_rms_table(data: pd.DataFrame) -> pd.DataFrame:
+    rows = {}
+    for c in COEFFICIENT_NAMES:
+        err = data[c] - data["true_" + c]
+        rms = float(np.sqrt(np.mean(err ** 2)))
+        span = float(data["true_" + c].max() - data["true_" + c].min())
+        rows[c] = {"rms": rms, "range": span, "relative_rms_%": 100 * rms / span}
+    return pd.DataFrame.from_dict(rows, orient="index")
+
+
+def test_ideal_sensors_reproduce_true_coefficients(ideal_campaign):
+    coef, thrust = aerodynamic_coefficients(ideal_campaign, accelerations="measured")
+    assert thrust
+    for c in COEFFICIENT_NAMES:
+        np.testing.assert_allclose(coef[c], ideal_campaign["true_" + c], rtol=0, atol=1e-6)
+    V = ideal_campaign["tas"]
+    np.testing.assert_allclose(coef["qhat"],
+                               ideal_campaign["q"] * ideal_campaign.attrs["cbar"] / (2 * V))
+    np.testing.assert_allclose(coef["phat"],
+                               ideal_campaign["p"] * ideal_campaign.attrs["b"] / (2 * V))
+
+
+def test_without_thrust_columns_thrust_is_included_and_flagged(ideal_campaign):
+    df = ideal_campaign.drop(columns=list(THRUST_COLUMNS))
+    coef, thrust = aerodynamic_coefficients(df, accelerations="measured")
+    assert not thrust
+    qs = 0.5 * df["rho"] * df["tas"] ** 2 * df.attrs["S"]
+    expected = ideal_campaign["true_CX"] + ideal_campaign["thrust_x"] / qs
+    np.testing.assert_allclose(coef["CX"], expected, atol=1e-6)
+
+
+def test_differentiated_accelerations_on_ideal_data(ideal_campaign):
+    acc = angular_accelerations(ideal_campaign, half_window=1)    # plain forward difference
+    inner = ideal_campaign.groupby("maneuver").cumcount(ascending=False).to_numpy() > 0
+    np.testing.assert_allclose(acc[inner], ideal_campaign[["pdot", "qdot", "rdot"]]
+                               .to_numpy()[inner], atol=1e-9)
+    coef, _ = aerodynamic_coefficients(ideal_campaign, accelerations="differentiate")
+    table = relative_rms_table(pd.concat([coef, ideal_campaign.filter(like="true_")], axis=1))
+    assert (table["relative_rms_%"] < 1.0).all(), table
+
+
+def test_coefficient_accuracy_from_reconstructed_data(noisy_reconstruction, capsys):
+    table = relative_rms_table(noisy_reconstruction.data)
+    with capsys.disabled():
+        print("\ncoefficients from reconstructed data vs true_ (default sensors, measured "
+              "angular accelerations):\n" + table.to_string(float_format="%.3g"))
+    assert (table["relative_rms_%"] <= 1.0).all(), table
+
+
+def test_coefficient_accuracy_with_differentiated_rates(noisy_campaign, noisy_reconstruction):
+    data = noisy_reconstruction.data.drop(columns=["pdot", "qdot", "rdot"])
+    coef, _ = aerodynamic_coefficients(data)
+    table = relative_rms_table(pd.concat([coef, data.filter(like="true_")], axis=1))
+    assert (table["relative_rms_%"] <= 1.0).all(), table
+
+
+def test_missing_inputs_are_named(ideal_campaign):
+    with pytest.raises(FlightDataError, match="'cbar'"):
+        aerodynamic_coefficients(ideal_campaign, {"S": 1.0, "b": 1.0})
+    with pytest.raises(FlightDataError, match="Ixz"):
+        aerodynamic_coefficients(ideal_campaign.drop(columns=["Ixz"]))
+    with pytest.raises(FlightDataError, match="pdot"):
+        aerodynamic_coefficients(ideal_campaign.drop(columns=["pdot"]), accelerations="measured")
+    with pytest.raises(InputError, match="accelerations"):
+        aerodynamic_coefficients(ideal_campaign, accelerations="maybe")
+
+
+@pytest.mark.parametrize("m", [2, 5, 8, 12])
+def test_midpoint_derivative_exact_for_quadratics(m):
+    t = np.arange(80) * 0.01
+    x = 3 - 2 * t + 5 * t ** 2
+    d = midpoint_derivative(x, 0.01, half_window=m, degree=2)
+    np.testing.assert_allclose(d, -2 + 10 * (t + 0.005), atol=1e-8)
+
+
+def test_midpoint_derivative_forward_difference_and_noise_reduction():
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=5000)
+    np.testing.assert_allclose(midpoint_derivative(x, 0.5, half_window=1)[:-1],
+                               np.diff(x) / 0.5)
+    raw = np.std(np.diff(x))
+    smooth = np.std(midpoint_derivative(x, 1.0, half_window=12)[20:-20])
+    assert smooth < 0.1 * raw
+
+
+def test_midpoint_derivative_short_and_invalid():
+    np.testing.assert_allclose(midpoint_derivative(np.array([0.0, 1.0, 2.0]), 1.0), 1.0)
+    with pytest.raises(InputError, match="at least 2"):
+        midpoint_derivative(np.array([1.0]), 0.01)
+    with pytest.raises(InputError, match="half_window"):
+        midpoint_derivative(np.arange(10.0), 0.01, half_window=0)
