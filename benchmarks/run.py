@@ -17,6 +17,7 @@ def main(argv: list[str]) -> int:
     runs = [
         [sys.executable, str(HERE / "bench_fit.py")] + (["--quick", "--repeats", "3"] if quick else []),
         [sys.executable, str(HERE / "bench_sim.py")] + (["--maneuvers", "20", "--repeats", "1"] if quick else []),
+        [sys.executable, str(HERE / "bench_reconstruction.py")] + (["--maneuvers", "10"] if quick else []),
     ]
     status = 0
     for cmd in runs:
