@@ -1,4 +1,4 @@
-"""The open, versioned model file format (JSON or npz; never pickle).
+"""The open, versioned model file format (JSON or npz; no pickled objects).
 
 A model file holds one :class:`~simplexspline.SimplexSpline`:
 

@@ -234,7 +234,7 @@ class SimplexSpline:
 
     # ------------------------------------------------------------------ persistence
     def save(self, path) -> Path:
-        """Save to an open, versioned model file (``.json`` or ``.npz``; never pickle).
+        """Save to an open, versioned model file (``.json`` or ``.npz``; no pickled objects).
 
         The write is atomic (temporary file, then rename). Loading reproduces predictions
         bit for bit. See :mod:`simplexspline.spline.io` for the format.
