@@ -100,38 +100,42 @@ class NormalEquations:
     def _add_located(self, pts, vals, w, sid) -> None:
         """Accumulate points whose simplices are known (kernel, no validation)."""
         tri = self.triangulation
-        order = np.argsort(sid, kind="stable")
-        sid = sid[order]
-        pts = pts[order]
-        vals = vals[order]
-        b = tri._locator_barycentric(pts, sid)
-        if kernels.HAVE_NUMBA:
-            bt = kernels.basis_cols(b.T, self.degree)  # (d_hat, N)
-        else:
-            bt = basis_values_t(b.T, self.degree)  # (d_hat, N)
         nsimp = tri.nsimplex
         counts = np.bincount(sid, minlength=nsimp)
         self.counts += counts
-        if w is None:
-            bw = bt
-            wv = vals
-            self.wsum += counts
-            self.ytWy += float(vals @ vals)
-        else:
-            w = w[order]
-            bw = bt * w
-            wv = w * vals
-            self.wsum += np.bincount(sid, weights=w, minlength=nsimp)
-            self.ytWy += float(wv @ vals)
         ends = np.cumsum(counts)
+        if kernels.HAVE_NUMBA:
+            # Basis rows written directly in simplex-sorted order: X_j = rows[s:e].
+            rows, perm = kernels.sorted_design(pts, sid, counts, tri._origin, tri._tinv,
+                                               self.degree)
+            ys = np.empty_like(vals)
+            ys[perm] = vals
+            ws = None
+            if w is not None:
+                ws = np.empty_like(w)
+                ws[perm] = w
+            blocks = lambda s, e: rows[s:e].T  # noqa: E731  (d_hat, n_j) view
+        else:
+            order = np.argsort(sid, kind="stable")
+            b = tri._locator_barycentric(pts[order], sid[order])
+            bt = basis_values_t(b.T, self.degree)  # (d_hat, N)
+            ys = vals[order]
+            ws = None if w is None else w[order]
+            blocks = lambda s, e: np.ascontiguousarray(bt[:, s:e])  # noqa: E731
+        if ws is None:
+            self.wsum += counts
+            self.ytWy += float(ys @ ys)
+            wy = ys
+        else:
+            self.wsum += np.bincount(sid, weights=w, minlength=nsimp)
+            wy = ws * ys
+            self.ytWy += float(wy @ ys)
         for j in np.nonzero(counts)[0]:
             s, e = ends[j] - counts[j], ends[j]
-            # A contiguous copy of the block makes the BLAS product 2-3x faster than on
-            # the strided slice; the copy costs one pass over memory.
-            xj = np.ascontiguousarray(bt[:, s:e])
-            xw = xj if w is None else np.ascontiguousarray(bw[:, s:e])
+            xj = blocks(s, e)
+            xw = xj if ws is None else xj * ws[s:e]
             self.XtWX[j] += xw @ xj.T
-            self.XtWy[j] += xj @ wv[s:e]
+            self.XtWy[j] += xj @ wy[s:e]
 
     def check_space(self, triangulation, degree: int) -> None:
         """Raise InputError unless these blocks belong to ``triangulation`` and ``degree``."""
