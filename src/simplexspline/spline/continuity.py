@@ -68,7 +68,7 @@ def build_conditions(tri, d: int, r: int) -> Conditions:
         empty = sp.csr_matrix((0, ncols))
         return Conditions(empty, np.empty(0, dtype=np.int64), np.empty((0, 2), dtype=np.int64))
     ta, tb = facets.simplices[:, 0], facets.simplices[:, 1]
-    pa, pb = facets.out_positions[:, 0], facets.out_positions[:, 1]
+    pa = facets.out_positions[:, 0]
     simp = tri.simplices
     # Local positions of the shared (sorted) facet vertices in each simplex: (F, n).
     pos_a = np.argmax(simp[ta][:, None, :] == facets.vertices[:, :, None], axis=2)

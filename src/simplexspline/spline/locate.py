@@ -96,7 +96,8 @@ class BucketLocator:
     corners : ndarray, shape (J, n + 1, n)
         Vertex coordinates of every simplex.
     origin, tinv : ndarray
-        The simplices' affine maps (see :func:`~simplexspline.spline.barycentric.simplex_transforms`).
+        The simplices' affine maps
+        (see :func:`~simplexspline.spline.barycentric.simplex_transforms`).
     """
 
     def __init__(self, corners: np.ndarray, origin: np.ndarray, tinv: np.ndarray):
