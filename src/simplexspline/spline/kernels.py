@@ -137,6 +137,22 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
         return out
 
     @numba.njit(cache=True, nogil=True)
+    def _block_barycentric(x, sid, i0, i1, origin, tinv, bt):
+        """Barycentric coordinates of points i0..i1 in their simplices into bt[:, :i1-i0]
+        (a negative simplex id, i.e. outside, uses simplex 0: the caller masks it)."""
+        n = x.shape[1]
+        for i in range(i1 - i0):
+            j = max(sid[i0 + i], 0)
+            total = 0.0
+            for k in range(n):
+                acc = 0.0
+                for q in range(n):
+                    acc += tinv[j, k, q] * (x[i0 + i, q] - origin[j, q])
+                bt[k + 1, i] = acc
+                total += acc
+            bt[0, i] = 1.0 - total
+
+    @numba.njit(cache=True, nogil=True)
     def _evaluate(x, sid, origin, tinv, coef, parents, firsts, offsets, scale, out):
         npts, n = x.shape
         m = scale.shape[0]
@@ -145,18 +161,7 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
         s2 = np.empty((max(m, n + 1), BLOCK))
         for i0 in range(0, npts, BLOCK):
             i1 = min(i0 + BLOCK, npts)
-            for i in range(i1 - i0):
-                j = sid[i0 + i]
-                if j < 0:
-                    j = 0
-                total = 0.0
-                for k in range(n):
-                    acc = 0.0
-                    for q in range(n):
-                        acc += tinv[j, k, q] * (x[i0 + i, q] - origin[j, q])
-                    bt[k + 1, i] = acc
-                    total += acc
-                bt[0, i] = 1.0 - total
+            _block_barycentric(x, sid, i0, i1, origin, tinv, bt)
             mono = _block_monomials(bt, 0, i1 - i0, parents, firsts, offsets, s1, s2)
             for i in range(i1 - i0):
                 j = sid[i0 + i]
@@ -184,16 +189,7 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
         s2 = np.empty((max(m, n + 1), BLOCK))
         for i0 in range(0, npts, BLOCK):
             i1 = min(i0 + BLOCK, npts)
-            for i in range(i1 - i0):
-                j = sid[i0 + i]
-                total = 0.0
-                for k in range(n):
-                    acc = 0.0
-                    for q in range(n):
-                        acc += tinv[j, k, q] * (x[i0 + i, q] - origin[j, q])
-                    bt[k + 1, i] = acc
-                    total += acc
-                bt[0, i] = 1.0 - total
+            _block_barycentric(x, sid, i0, i1, origin, tinv, bt)
             mono = _block_monomials(bt, 0, i1 - i0, parents, firsts, offsets, s1, s2)
             for i in range(i1 - i0):
                 j = sid[i0 + i]
