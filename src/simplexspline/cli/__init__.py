@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from simplexspline.errors import SimplexSplineError
 
 #: Sub-command modules, in the order ``--help`` lists them.
-_COMMANDS = ("demo", "simulate", "reconstruct")
+_COMMANDS = ("identify", "simulate", "reconstruct", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,484 @@
+"""Global aerodynamic model identification, end to end (the paper's Section IV).
+
+flight data -> reconstruction (when the table holds raw sensor channels) -> coefficients
+-> identification / validation split by maneuver -> model structure per coefficient
+(preset or automatic selection) -> fit on all identification data -> validation scores
+(RMS, relative RMS, R^2, residual autocorrelation, error against the truth when known)
+-> report.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import time
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from simplexspline.aero.model import AeroModel
+from simplexspline.aero.selection import (
+    SelectionSettings,
+    Trial,
+    fit_structure,
+    select_structure,
+    single_threaded_blas,
+)
+from simplexspline.aero.structure import COEFFICIENTS, Structure, preset
+from simplexspline.aero.validation import scores, split_by_maneuver
+from simplexspline.errors import FlightDataError, InputError
+
+__all__ = [
+    "PAPER_TABLE2",
+    "CoefficientResult",
+    "Identification",
+    "IdentificationSettings",
+    "ThinDataWarning",
+    "identify",
+]
+
+#: Validation relative RMS of the paper's Table 2 (Cessna Citation II, fractions).
+PAPER_TABLE2 = {"CX": 0.0693, "CZ": 0.0260, "Cl": 0.0170, "Cm": 0.0172, "Cn": 0.0472}
+
+#: Columns that identify data as already reconstructed (coefficients present).
+_RECONSTRUCTED = ("CX", "CY", "CZ", "Cl", "Cm", "Cn", "phat", "qhat", "rhat")
+
+
+class ThinDataWarning(UserWarning):
+    """A model has simplices holding too few identification samples."""
+
+
+@dataclass(frozen=True)
+class IdentificationSettings:
+    """Settings of :func:`identify`.
+
+    Parameters
+    ----------
+    coefficients : tuple of str
+        Coefficients to model (default all six, CX..Cn).
+    structures : dict of str to Structure, optional
+        Starting (or fixed) structure per coefficient; default the paper's preset.
+    select : bool
+        Run the automatic structure selection from the starting structures.
+    selection : SelectionSettings
+    validation_fraction : float
+        Fraction of the maneuvers held out for validation (drawn within every maneuver
+        type).
+    seed : int
+        Seed of the split and the folds.
+    reconstruct : {'auto', 'always', 'never'}
+        Flight path reconstruction: 'auto' runs it unless the table already has the
+        coefficient columns ``CX..Cn`` and ``phat, qhat, rhat``.
+    workers : int or None
+        Processes for the reconstruction (None: all CPUs).
+    thin_factor : float
+        A simplex is reported as thinly covered when it holds fewer than
+        ``thin_factor * d_hat`` identification samples.
+    """
+
+    coefficients: tuple = COEFFICIENTS
+    structures: Mapping | None = None
+    select: bool = True
+    selection: SelectionSettings = field(default_factory=SelectionSettings)
+    validation_fraction: float = 0.25
+    seed: int = 0
+    reconstruct: str = "auto"
+    workers: int | None = None
+    thin_factor: float = 2.0
+
+    def __post_init__(self):
+        unknown = [c for c in self.coefficients if c not in COEFFICIENTS]
+        if unknown or not self.coefficients:
+            raise InputError(f"unknown coefficient(s) {unknown or '(none given)'}; known: "
+                             f"{list(COEFFICIENTS)}")
+        if self.reconstruct not in ("auto", "always", "never"):
+            raise InputError("reconstruct must be 'auto', 'always' or 'never', got "
+                             f"{self.reconstruct!r}")
+        if not 0.0 < self.validation_fraction < 1.0:
+            raise InputError("validation_fraction must be in (0, 1), got "
+                             f"{self.validation_fraction!r}")
+
+    def starting_structures(self) -> dict:
+        base = preset()
+        if self.structures:
+            base.update(self.structures)
+        return {c: base[c] for c in self.coefficients}
+
+    def to_dict(self) -> dict:
+        return {
+            "coefficients": list(self.coefficients),
+            "structures": {c: s.to_dict() for c, s in self.starting_structures().items()},
+            "select": self.select, "selection": self.selection.to_dict(),
+            "validation_fraction": self.validation_fraction, "seed": self.seed,
+            "reconstruct": self.reconstruct, "thin_factor": self.thin_factor,
+        }
+
+
+@dataclass
+class CoefficientResult:
+    """The identified model of one coefficient and its scores.
+
+    Attributes
+    ----------
+    model : AeroModel
+    validation : dict
+        :func:`~simplexspline.aero.validation.scores` on the validation maneuvers.
+    identification : dict
+        The same on the identification data (fit quality).
+    history : list of Trial
+        Structures tried by the selection (only the start when selection is off).
+    counts : ndarray of int, shape (J,)
+        Identification samples per simplex.
+    thin : ndarray of int
+        Simplices holding fewer than ``thin_factor * d_hat`` samples.
+    seconds : float
+        Wall time of selection + fit.
+    """
+
+    model: AeroModel
+    validation: dict
+    identification: dict
+    history: list
+    counts: np.ndarray
+    thin: np.ndarray
+    seconds: float = 0.0
+
+    @property
+    def structure(self) -> Structure:
+        return self.model.structure
+
+
+@dataclass
+class Identification:
+    """The result of :func:`identify`.
+
+    Attributes
+    ----------
+    results : dict of str to CoefficientResult
+    identification, validation : pandas.DataFrame
+        The coefficient data (reconstructed when needed) split by maneuver, with the model
+        outputs ``model_<C>`` added to ``validation``.
+    settings : IdentificationSettings
+    metadata : dict
+        Flight-data metadata.
+    provenance : dict
+        Input hash, package version, times, reconstruction summary.
+    warnings : list of str
+    """
+
+    results: dict
+    identification: object
+    validation: object
+    settings: IdentificationSettings
+    metadata: dict
+    provenance: dict
+    warnings: list = field(default_factory=list)
+
+    @property
+    def has_truth(self) -> bool:
+        return all(f"true_{c}" in self.validation.columns for c in self.results)
+
+    def table(self) -> str:
+        """The Table-2 style validation table (plain text)."""
+        head = (f"{'model':<44} {'simplices':>9} {'RMS':>10} {'rel. RMS':>9} {'R2':>7} "
+                f"{'paper':>7}")
+        if self.has_truth:
+            head += f" {'RMS true':>10} {'rel. true':>9} {'noise RMS':>10}"
+        lines = [head, "-" * len(head)]
+        for c, res in self.results.items():
+            v = res.validation
+            paper = PAPER_TABLE2.get(c)
+            line = (f"{res.structure.label():<44} {res.model.spline.triangulation.nsimplex:>9d}"
+                    f" {v['rms']:>10.3e} {100 * v['rrms']:>8.2f}% {v['r2']:>7.4f} "
+                    f"{'' if paper is None else f'{100 * paper:.2f}%':>7}")
+            if self.has_truth:
+                line += (f" {v['rms_true']:>10.3e} {100 * v['rrms_true']:>8.3f}%"
+                         f" {v['noise_rms']:>10.3e}")
+            lines.append(line)
+        return "\n".join(lines)
+
+    def summary(self) -> dict:
+        """The content of ``summary.json``."""
+        out = {"format": "simplexspline.identification", "version": 1,
+               "aircraft": self.metadata.get("aircraft"),
+               "provenance": self.provenance,
+               "settings": self.settings.to_dict(),
+               "identification_maneuvers": sorted(
+                   int(m) for m in np.unique(self.identification["maneuver"])),
+               "validation_maneuvers": sorted(
+                   int(m) for m in np.unique(self.validation["maneuver"])),
+               "warnings": list(self.warnings),
+               "coefficients": {}}
+        for c, res in self.results.items():
+            v = res.validation
+            entry = {"structure": res.structure.to_dict(), "label": res.structure.label(),
+                     "nsimplex": int(res.model.spline.triangulation.nsimplex),
+                     "ncoefficients": int(res.model.spline.coefficients.size),
+                     "rms": v["rms"], "rrms": v["rrms"], "r2": v["r2"], "n": v["n"],
+                     "whiteness": v["whiteness"],
+                     "identification": {k: res.identification[k]
+                                        for k in ("rms", "rrms", "r2", "n")},
+                     "thin_simplices": len(res.thin),
+                     "paper_rrms": PAPER_TABLE2.get(c),
+                     "seconds": round(res.seconds, 3),
+                     "selection": [t.to_dict() for t in res.history]}
+            for k in ("rms_true", "rrms_true", "noise_rms", "rms_true_over_noise"):
+                if k in v:
+                    entry[k] = v[k]
+            out["coefficients"][c] = entry
+        return out
+
+    def save(self, outdir, *, report: bool = True, model_format: str = "json",
+             progress: Callable[[str], None] | None = None) -> Path:
+        """Write ``summary.json``, ``models/<C>.json`` and (optionally) ``report.html`` +
+        ``report.md`` with figures to ``outdir``.
+
+        Everything is written to a temporary directory next to ``outdir`` and renamed into
+        place at the end, so a failure never leaves a half-written output directory. An
+        existing ``outdir`` is replaced only when the new one is complete.
+        """
+        outdir = Path(outdir)
+        if model_format not in ("json", "npz"):
+            raise InputError(f"model_format must be 'json' or 'npz', got {model_format!r}")
+        parent = outdir.resolve().parent
+        if not parent.is_dir():
+            raise InputError(f"the parent directory of {str(outdir)!r} does not exist")
+        if outdir.exists() and not outdir.is_dir():
+            raise InputError(f"{str(outdir)!r} exists and is not a directory")
+        tmp = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.", dir=parent))
+        try:
+            (tmp / "models").mkdir()
+            for c, res in self.results.items():
+                res.model.save(tmp / "models" / f"{c}.{model_format}")
+            (tmp / "summary.json").write_text(
+                json.dumps(_jsonable(self.summary()), indent=1, allow_nan=True) + "\n",
+                encoding="utf-8")
+            if report:
+                from simplexspline.aero.report import write_report
+
+                write_report(self, tmp, progress=progress)
+            if outdir.exists():
+                old = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.old.", dir=parent))
+                os.replace(outdir, old / "x")
+                os.replace(tmp, outdir)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.replace(tmp, outdir)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return outdir
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        v = float(obj)
+        return v if np.isfinite(v) else None
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    return obj
+
+
+def file_hash(path) -> str:
+    """SHA-256 of a file (provenance)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return "sha256:" + h.hexdigest()
+
+
+def _coefficient_data(df, meta: dict, settings: IdentificationSettings, progress: bool,
+                      log: Callable[[str], None]):
+    """Reconstruct when needed; return (table with coefficients, reconstruction note)."""
+    have = all(c in df.columns for c in _RECONSTRUCTED)
+    if settings.reconstruct == "never" or (settings.reconstruct == "auto" and have):
+        if not have:
+            missing = [c for c in _RECONSTRUCTED if c not in df.columns]
+            raise FlightDataError(f"reconstruct='never' but the coefficient column(s) "
+                                  f"{missing} are missing: run the reconstruction")
+        return df, {"reconstructed": False}
+    from simplexspline.aero.reconstruction import reconstruct
+
+    log("flight path reconstruction (IEKF + RTS smoother)")
+    rec = reconstruct(df, meta, workers=settings.workers, progress=progress)
+    note = {"reconstructed": True, "rejected": {int(k): v for k, v in rec.rejected.items()},
+            "thrust_subtracted": rec.thrust_subtracted, "accelerations": rec.accelerations,
+            "summary": rec.summary()}
+    return rec.data, note
+
+
+def _check_columns(df, structures: Mapping, coefficients) -> None:
+    cols = set(df.columns)
+    for c in coefficients:
+        if c not in cols:
+            raise FlightDataError(f"coefficient column {c!r} is missing from the data")
+    for c, s in structures.items():
+        missing = [v for v in s.variables if v not in cols]
+        if missing:
+            raise InputError(f"unknown variable(s) {missing} in the structure of {c}; the "
+                             f"data have {sorted(cols)}")
+
+
+def identify(df, metadata: Mapping | None = None, *,
+             settings: IdentificationSettings | None = None, progress: bool = False,
+             log: Callable[[str], None] | None = None, source: str | None = None,
+             ) -> Identification:
+    """Identify the aerodynamic model of an aircraft from flight data.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Flight data in the flight-data schema: raw measurements (reconstructed first) or
+        already reconstructed data with ``CX..Cn, phat, qhat, rhat``.
+    metadata : mapping, optional
+        Schema metadata (``df.attrs`` if None).
+    settings : IdentificationSettings, optional
+    progress : bool
+        Progress bars for the long steps.
+    log : callable, optional
+        Receives one line per step (e.g. ``print``).
+    source : str, optional
+        Description of the input (file name and hash) for the provenance.
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    FlightDataError
+        Missing columns, NaN/inf in a used column (naming the maneuvers), no maneuvers.
+    InputError
+        Unknown variables in a structure, an empty identification or validation set.
+    """
+    from simplexspline import __version__
+
+    settings = settings or IdentificationSettings()
+    log = log or (lambda _msg: None)
+    t_start = time.perf_counter()
+    meta = dict(df.attrs if metadata is None else metadata)
+    if "maneuver" not in df.columns:
+        raise FlightDataError("column 'maneuver' is missing: the validation split is made "
+                              "by maneuver")
+    if len(df) == 0:
+        raise FlightDataError("the flight data table is empty")
+    data, rec_note = _coefficient_data(df, meta, settings, progress, log)
+    structures = settings.starting_structures()
+    _check_columns(data, structures, settings.coefficients)
+    used = sorted({v for s in structures.values() for v in s.variables}
+                  | set(settings.coefficients)
+                  | ({v for v in settings.selection.candidates if v in data.columns}
+                     if settings.select else set()))
+    bad_rows = ~np.all(np.isfinite(data[used].to_numpy(dtype=float)), axis=1)
+    if bad_rows.any():
+        mans = np.unique(data["maneuver"].to_numpy()[bad_rows])
+        cols = [c for c in used if not np.all(np.isfinite(data[c].to_numpy(dtype=float)))]
+        raise FlightDataError(f"NaN or inf in column(s) {cols} in {int(bad_rows.sum())} rows "
+                              f"of maneuver(s) {mans[:10].tolist()}: drop those maneuvers or "
+                              "fill the gaps before identification")
+    groups = data["maneuver_type"].to_numpy() if "maneuver_type" in data.columns else None
+    is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
+                               seed=settings.seed, groups=groups)
+    ident, valid = data.loc[~is_val].copy(), data.loc[is_val].copy()
+    if len(valid) == 0 or len(ident) == 0:
+        raise InputError("the identification or validation set is empty; give more maneuvers"
+                         " or change validation_fraction")
+    log(f"{data['maneuver'].nunique()} maneuvers: {ident['maneuver'].nunique()} for "
+        f"identification ({len(ident):,} samples), {valid['maneuver'].nunique()} for "
+        f"validation ({len(valid):,} samples)")
+    columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
+               if c in used or c in settings.selection.candidates}
+    columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
+    results, notes = {}, []
+    has_truth = all(f"true_{c}" in valid.columns for c in settings.coefficients)
+    bar = _bar(len(settings.coefficients), progress)
+    with single_threaded_blas():
+        for c in settings.coefficients:
+            res = _identify_one(c, structures[c], ident, valid, columns, settings,
+                                has_truth, source, notes)
+            results[c] = res
+            v = res.validation
+            log(f"{res.structure.label():<44} validation rel. RMS {100 * v['rrms']:.2f} %"
+                + (f", RMS vs truth {v['rms_true']:.3e} (noise {v['noise_rms']:.3e})"
+                   if has_truth else "") + f"  [{res.seconds:.1f} s]")
+            bar.update(1)
+    bar.close()
+    prov = {"software": f"simplexspline {__version__}",
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "seconds": round(time.perf_counter() - t_start, 2),
+            "reconstruction": rec_note}
+    if source:
+        prov["source"] = source
+    for res in results.values():
+        res.model.provenance.update({"software": prov["software"],
+                                     "settings": settings.to_dict(),
+                                     "validation": {k: res.validation.get(k) for k in
+                                                    ("rms", "rrms", "r2", "rms_true",
+                                                     "rrms_true")}})
+    return Identification(results, ident, valid, settings, meta, prov, notes)
+
+
+def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
+                  settings: IdentificationSettings, has_truth: bool, source, notes: list,
+                  ) -> CoefficientResult:
+    """Select (optionally), fit and validate the model of coefficient ``c``."""
+    t0 = time.perf_counter()
+    y = ident[c].to_numpy(dtype=float)
+    mans = ident["maneuver"].to_numpy()
+    if settings.select:
+        best, history = select_structure(start, columns, y, mans, settings.selection,
+                                         seed=settings.seed)
+    else:
+        best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
+    model = fit_structure(best, columns, y, min_points=settings.selection.min_points,
+                          ridge=settings.selection.ridge,
+                          provenance={"coefficient": c, **({"source": source}
+                                                            if source else {})})
+    pred_v = model.predict(valid)
+    valid[f"model_{c}"] = pred_v
+    truth_v = valid[f"true_{c}"].to_numpy() if has_truth else None
+    truth_i = ident[f"true_{c}"].to_numpy() if has_truth else None
+    v_scores = scores(valid[c].to_numpy(dtype=float), pred_v, truth=truth_v,
+                      maneuvers=valid["maneuver"].to_numpy())
+    i_scores = scores(y, model.predict(ident), truth=truth_i, maneuvers=mans, max_lag=0)
+    counts = np.asarray(model.provenance["counts"])
+    thin = np.nonzero(counts < settings.thin_factor * best.nbasis)[0]
+    if len(thin):
+        msg = (f"{c}: {len(thin)} of {len(counts)} simplices hold fewer than "
+               f"{settings.thin_factor:g} x d_hat = {int(settings.thin_factor * best.nbasis)}"
+               f" samples (fewest: {int(counts.min())}); the model is poorly supported there")
+        notes.append(msg)
+        warnings.warn(msg, ThinDataWarning, stacklevel=3)
+    return CoefficientResult(model, v_scores, i_scores, history, counts, thin,
+                             time.perf_counter() - t0)
+
+
+class _NoBar:
+    def update(self, _n):
+        pass
+
+    def close(self):
+        pass
+
+
+def _bar(total: int, progress: bool):
+    if not progress:
+        return _NoBar()
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:  # pragma: no cover - tqdm is in the aero extra
+        return _NoBar()
+    return tqdm(total=total, desc="models", unit="coef")

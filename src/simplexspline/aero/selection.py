@@ -1,0 +1,354 @@
+"""Fitting one structure, scoring it by k-fold cross-validation over maneuvers, and the
+automatic model structure selection of the paper's Section IV.D.
+
+Selection is a greedy search from a starting structure. Each round tries every move
+
+* degree up / down (continuity kept below the degree),
+* refine / coarsen the triangulation along one variable (one more / fewer grid cell),
+* add a candidate variable / remove a variable,
+
+scores each candidate by the RMS of k-fold cross-validation in which whole maneuvers are
+held out (the normal equations of each fold are accumulated once; a fold's training
+system is the sum of the others), and takes the best move when it lowers the score by more
+than ``min_improvement`` (relative). Every tried structure is recorded with its score.
+The held-out validation maneuvers are never used for selection.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from simplexspline.aero.model import AeroModel
+from simplexspline.aero.structure import Scaling, Structure
+from simplexspline.errors import InputError, SimplexSplineError
+from simplexspline.spline.space import SplineSpace
+from simplexspline.spline.triangulation import Triangulation
+
+__all__ = ["SelectionSettings", "Trial", "cv_score", "fit_structure", "select_structure"]
+
+
+@dataclass(frozen=True)
+class SelectionSettings:
+    """Limits and options of the structure search.
+
+    Parameters
+    ----------
+    candidates : tuple of str
+        Variables that may be added (only those present in the data are used).
+    max_rounds : int
+        Greedy rounds (each takes the best of all moves).
+    folds : int
+        k of the k-fold cross-validation by maneuver.
+    min_improvement : float
+        Relative decrease of the CV RMS a move must bring to be taken.
+    max_degree, max_resolution, max_variables : int
+        Bounds of the search.
+    max_coefficients : int
+        Largest number of B-coefficients (J * d_hat) tried.
+    samples_per_coefficient : float
+        A structure needs at least this many identification samples per B-coefficient.
+    min_points : int
+        Simplices holding fewer samples are dropped from the triangulation.
+    moves : tuple of str
+        Kinds of moves tried: 'degree', 'resolution', 'variables'.
+    ridge : float
+        Relative ridge weight on the B-coefficients (times the mean diagonal of X'X): a
+        tiny value that only decides directions the data and continuity leave
+        undetermined in thinly covered simplices (0: minimum-norm solution instead).
+    max_samples : int
+        The search uses at most this many identification samples (every k-th sample, so
+        all maneuvers stay); the final fit uses all of them.
+    """
+
+    candidates: tuple = ("alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr")
+    max_rounds: int = 6
+    folds: int = 3
+    min_improvement: float = 0.01
+    max_degree: int = 5
+    max_resolution: int = 6
+    max_variables: int = 5
+    max_coefficients: int = 12000
+    samples_per_coefficient: float = 20.0
+    min_points: int = 10
+    max_samples: int = 150_000
+    moves: tuple = ("degree", "resolution", "variables")
+    ridge: float = 1e-8
+
+    def to_dict(self) -> dict:
+        return {k: (list(v) if isinstance(v, tuple) else v)
+                for k, v in self.__dict__.items()}
+
+
+@dataclass
+class Trial:
+    """One scored structure of the search."""
+
+    structure: Structure
+    score: float
+    round: int
+    move: str
+    ncoefficients: int = 0
+    nsimplex: int = 0
+    seconds: float = 0.0
+    accepted: bool = False
+    error: str = ""
+
+    def to_dict(self) -> dict:
+        return {"structure": self.structure.to_dict(), "label": self.structure.label(),
+                "cv_rms": self.score, "round": self.round, "move": self.move,
+                "ncoefficients": self.ncoefficients, "nsimplex": self.nsimplex,
+                "seconds": round(self.seconds, 3), "accepted": self.accepted,
+                "error": self.error}
+
+
+class single_threaded_blas:
+    """Limit BLAS/LAPACK to one thread: the many small factorisations of the selection
+    are 10-20x slower with multi-threaded OpenBLAS on a busy machine (measured)."""
+
+    def __enter__(self):
+        try:
+            from threadpoolctl import threadpool_limits
+        except ImportError:  # pragma: no cover - threadpoolctl is in the aero extra
+            self._limits = None
+        else:
+            self._limits = threadpool_limits(limits=1, user_api="blas")
+        return self
+
+    def __exit__(self, *exc):
+        if self._limits is not None:
+            self._limits.restore_original_limits()
+        return False
+
+
+def _matrix(columns: Mapping, variables: Sequence[str]) -> np.ndarray:
+    missing = [v for v in variables if v not in columns]
+    if missing:
+        raise InputError(f"unknown variable(s) {missing} in the model structure; the data "
+                         f"have {sorted(columns)}")
+    return np.column_stack([np.asarray(columns[v], dtype=float) for v in variables])
+
+
+def _space(structure: Structure, x: np.ndarray, min_points: int):
+    scaling = Scaling.from_data(x, structure.variables)
+    u = scaling.transform(x)
+    tri = Triangulation.fit(u, structure.resolution, min_points=min_points)
+    return scaling, u, SplineSpace(tri, structure.degree, structure.continuity)
+
+
+def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
+                  weights: np.ndarray | None = None, min_points: int = 10,
+                  ridge: float = 1e-8, provenance: dict | None = None) -> AeroModel:
+    """Fit one coefficient model of the given structure on all the given samples.
+
+    Parameters
+    ----------
+    structure : Structure
+    columns : mapping of str to ndarray, shape (N,)
+        Identification data by column name (physical units).
+    y : ndarray, shape (N,)
+        The coefficient.
+    weights : ndarray, shape (N,), optional
+    min_points : int
+        Simplices with fewer samples are dropped (points there use the nearest simplex).
+    ridge : float
+        Relative ridge weight (see :class:`SelectionSettings`); 0 takes the minimum-norm
+        solution in undetermined directions.
+
+    Returns
+    -------
+    AeroModel
+        ``provenance['counts']`` lists the samples per simplex.
+    """
+    x = _matrix(columns, structure.variables)
+    scaling, u, space = _space(structure, x, min_points)
+    ne = space.normal_equations()
+    keep = space.triangulation.locate(u) >= 0
+    ne.add(u[keep], np.asarray(y, dtype=float)[keep],
+           None if weights is None else np.asarray(weights)[keep])
+    spline = _solve(space, ne, ridge)
+    prov = dict(provenance or {})
+    prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
+                counts=ne.counts.tolist(), nbasis=structure.nbasis,
+                nsimplex=space.triangulation.nsimplex,
+                ncoefficients=int(space.dim_coefficients))
+    return AeroModel(structure, scaling, spline, prov)
+
+
+def _solve(space, ne, ridge: float):
+    if ridge > 0:
+        return space.solve(ne, on_insufficient="ridge", ridge=ridge)
+    return space.solve(ne, on_insufficient="minnorm")
+
+
+def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray, *,
+             min_points: int = 10, ridge: float = 1e-8) -> tuple[float, int, int]:
+    """k-fold cross-validation RMS (folds = whole maneuvers).
+
+    Returns
+    -------
+    rms : float
+        RMS of the held-out residuals over all folds.
+    ncoefficients, nsimplex : int
+    """
+    x = _matrix(columns, structure.variables)
+    y = np.asarray(y, dtype=float)
+    _scaling, u, space = _space(structure, x, min_points)
+    tri = space.triangulation
+    sid = tri.locate(u)
+    k = int(folds.max()) + 1
+    parts = []
+    for f in range(k):
+        sel = (folds == f) & (sid >= 0)
+        parts.append(space.normal_equations(u[sel], y[sel]))
+    total = parts[0].copy()
+    for p in parts[1:]:
+        total.merge(p)
+    sse = 0.0
+    for f in range(k):
+        train = total.copy()
+        train.XtWX -= parts[f].XtWX
+        train.XtWy -= parts[f].XtWy
+        train.ytWy -= parts[f].ytWy
+        train.wsum -= parts[f].wsum
+        train.counts -= parts[f].counts
+        spline = _solve(space, train, ridge)
+        held = folds == f
+        pred = spline.predict(u[held], outside="extrapolate")
+        sse += float(np.sum((y[held] - pred) ** 2))
+    return float(np.sqrt(sse / len(y))), int(space.dim_coefficients), int(tri.nsimplex)
+
+
+def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[str]):
+    """Candidate moves from structure ``s``: (description, structure)."""
+    out = []
+    if "degree" in settings.moves:
+        if s.degree < settings.max_degree:
+            out.append((f"degree {s.degree}->{s.degree + 1}", s.with_(degree=s.degree + 1)))
+        if s.degree > 1:
+            d = s.degree - 1
+            out.append((f"degree {s.degree}->{d}",
+                        s.with_(degree=d, continuity=min(s.continuity, d - 1))))
+    if "resolution" in settings.moves:
+        for i, v in enumerate(s.variables):
+            res = list(s.resolution)
+            if res[i] < settings.max_resolution:
+                res[i] += 1
+                out.append((f"refine {v} ({res[i] - 1}->{res[i]} cells)",
+                            s.with_(resolution=tuple(res))))
+            res = list(s.resolution)
+            if res[i] > 1:
+                res[i] -= 1
+                out.append((f"coarsen {v} ({res[i] + 1}->{res[i]} cells)",
+                            s.with_(resolution=tuple(res))))
+    if "variables" in settings.moves:
+        if s.ndim < settings.max_variables:
+            for v in settings.candidates:
+                if v in available and v not in s.variables:
+                    out.append((f"add {v}", s.with_(variables=(*s.variables, v),
+                                                    resolution=(*s.resolution, 1))))
+        if s.ndim > 1:
+            for i, v in enumerate(s.variables):
+                keep = [j for j in range(s.ndim) if j != i]
+                out.append((f"remove {v}", s.with_(
+                    variables=tuple(s.variables[j] for j in keep),
+                    resolution=tuple(s.resolution[j] for j in keep))))
+    return out
+
+
+def _size(s: Structure) -> int:
+    return s.nsimplex_max * s.nbasis
+
+
+def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
+                     maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
+                     seed: int = 0, progress: Callable[[str], None] | None = None,
+                     ) -> tuple[Structure, list]:
+    """Greedy automatic model structure selection.
+
+    Parameters
+    ----------
+    start : Structure
+        Where the search starts (e.g. the paper's structure).
+    columns : mapping of str to ndarray, shape (N,)
+        Identification data by column (physical units).
+    y : ndarray, shape (N,)
+        The coefficient.
+    maneuvers : ndarray, shape (N,)
+        Maneuver id per sample (the folds hold out whole maneuvers).
+    settings : SelectionSettings, optional
+    seed : int
+        Seed of the fold assignment.
+    progress : callable, optional
+        Called with a short text after each scored structure.
+
+    Returns
+    -------
+    best : Structure
+    history : list of Trial
+        Every structure tried, in order, with its CV RMS (``inf`` when it failed, with the
+        reason in ``error``); the accepted ones have ``accepted=True``.
+    """
+    from simplexspline.aero.validation import fold_by_maneuver
+
+    settings = settings or SelectionSettings()
+    y = np.asarray(y, dtype=float)
+    n = len(y)
+    step = max(1, int(np.ceil(n / settings.max_samples)))
+    cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
+    ys, mans = y[::step], np.asarray(maneuvers)[::step]
+    folds = fold_by_maneuver(mans, settings.folds, seed=seed)
+    available = [v for v in cols if np.ptp(np.asarray(cols[v], dtype=float)) > 0]
+    budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
+    seen: dict = {}
+    history: list = []
+
+    def score(s: Structure, rnd: int, move: str) -> float:
+        key = (s.variables, s.degree, s.continuity, s.resolution)
+        if key in seen:
+            return seen[key]
+        t0 = time.perf_counter()
+        trial = Trial(s, float("inf"), rnd, move)
+        try:
+            trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
+                s, cols, ys, folds, min_points=settings.min_points, ridge=settings.ridge)
+        except SimplexSplineError as exc:
+            trial.error = str(exc)[:300]
+        trial.seconds = time.perf_counter() - t0
+        seen[key] = trial.score
+        history.append(trial)
+        if progress is not None:
+            progress(f"{s.label()}: {trial.score:.4g}")
+        return trial.score
+
+    score.history = history
+    with single_threaded_blas():
+        return _search(start, settings, available, budget, score)
+
+
+def _search(start, settings, available, budget, score):
+    best = start
+    best_score = score(start, 0, "start")
+    history = score.history
+    if not np.isfinite(best_score):
+        raise InputError(f"the starting structure {start.label()} cannot be fitted: "
+                         f"{history[-1].error}")
+    history[-1].accepted = True
+    for rnd in range(1, settings.max_rounds + 1):
+        moves = [(m, s) for m, s in _neighbours(best, settings, available)
+                 if _size(s) <= budget]
+        if not moves:
+            break
+        results = [(score(s, rnd, m), m, s) for m, s in moves]
+        sc, _move, cand = min(results, key=lambda t: t[0])
+        if not sc < best_score * (1.0 - settings.min_improvement):
+            break
+        best, best_score = cand, sc
+        for t in reversed(history):
+            if t.structure == cand:
+                t.accepted = True
+                break
+    return best, history

@@ -1,0 +1,204 @@
+"""The identification pipeline on synthetic data with known coefficient functions."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from simplexspline.aero.identify import (
+    Identification,
+    IdentificationSettings,
+    ThinDataWarning,
+    identify,
+)
+from simplexspline.aero.model import AeroModel
+from simplexspline.aero.selection import SelectionSettings, fit_structure, select_structure
+from simplexspline.aero.structure import Structure
+from simplexspline.errors import FlightDataError, InputError, ModelFileError
+
+from .synthetic import synthetic_table, true_cz
+
+pytestmark = pytest.mark.filterwarnings("ignore::simplexspline.aero.identify.ThinDataWarning")
+
+FAST = SelectionSettings(max_rounds=2, max_samples=6000, moves=("variables",),
+                         samples_per_coefficient=5)
+
+
+@pytest.fixture(scope="module")
+def table():
+    return synthetic_table()
+
+
+@pytest.fixture(scope="module")
+def result(table) -> Identification:
+    settings = IdentificationSettings(
+        coefficients=("CZ", "Cm"),
+        structures={"CZ": Structure("CZ", ("alpha", "de", "mach"))},
+        selection=FAST)
+    return identify(table, settings=settings)
+
+
+def test_fit_structure_recovers_a_polynomial_in_its_space(table):
+    cols = {c: table[c].to_numpy() for c in table.columns if c != "maneuver_type"}
+    s = Structure("CZ", ("alpha", "de", "mach", "qhat"), 3, 1)
+    model = fit_structure(s, cols, table["true_CZ"].to_numpy())
+    pred = model.predict(table)
+    # true_cz is a cubic polynomial: reproduced to rounding by S^1_3 (tiny ridge only)
+    assert np.abs(pred - table["true_CZ"]).max() < 1e-6
+
+
+def test_selection_adds_the_missing_variable(table):
+    cols = {c: table[c].to_numpy() for c in table.columns if c != "maneuver_type"}
+    start = Structure("CZ", ("alpha", "de", "mach"))
+    best, history = select_structure(start, cols, table["CZ"].to_numpy(),
+                                     table["maneuver"].to_numpy(), FAST)
+    assert "qhat" in best.variables
+    assert history[0].move == "start" and history[0].accepted
+    accepted = [t for t in history if t.accepted]
+    assert [t.score for t in accepted] == sorted([t.score for t in accepted], reverse=True)
+    # every tried structure is recorded with a finite score, and each added candidate
+    assert all(np.isfinite(t.score) for t in history)
+    assert {"add beta", "add qhat"} <= {t.move for t in history}
+
+
+def test_identify_scores_against_measurement_and_truth(result, table):
+    cz = result.results["CZ"]
+    assert "qhat" in cz.structure.variables
+    v = cz.validation
+    noise = 2e-3
+    assert v["noise_rms"] == pytest.approx(noise, rel=0.1)
+    # a cubic in the spline space: the error against the truth (estimation variance of
+    # 840 coefficients from ~7,000 samples, ~sqrt(840/7000) of the noise) is below the noise
+    assert v["rms_true"] < 0.6 * noise
+    assert v["rms"] == pytest.approx(np.hypot(noise, v["rms_true"]), rel=0.1)
+    # Eq. 54-55 with the square root: relative RMS = RMS / range of the measurement
+    y = result.validation["CZ"].to_numpy()
+    e = y - result.validation["model_CZ"].to_numpy()
+    assert v["rms"] == pytest.approx(np.sqrt(np.mean(e**2)))
+    assert v["rrms"] == pytest.approx(v["rms"] / (y.max() - y.min()))
+    assert v["r2"] > 0.999
+    # validation maneuvers are whole and disjoint from the identification ones
+    ident_m = set(result.identification["maneuver"])
+    valid_m = set(result.validation["maneuver"])
+    assert ident_m.isdisjoint(valid_m) and ident_m | valid_m == set(table["maneuver"])
+
+
+def test_table_and_summary(result):
+    text = result.table()
+    assert "CZ(" in text and "Cm(" in text and "RMS true" in text
+    s = result.summary()
+    for c in ("CZ", "Cm"):
+        e = s["coefficients"][c]
+        for key in ("structure", "rms", "rrms", "r2", "rms_true", "rrms_true", "selection"):
+            assert key in e
+        assert 0 < e["rrms"] < 0.05
+    assert s["coefficients"]["CZ"]["paper_rrms"] == 0.026
+
+
+def test_save_writes_models_summary_and_loads(result, tmp_path, monkeypatch):
+    import simplexspline.aero.report as report
+
+    monkeypatch.setattr(report, "write_report", lambda res, out, progress=None: None)
+    out = result.save(tmp_path / "out")
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["coefficients"]) == {"CZ", "Cm"}
+    model = AeroModel.load(out / "models" / "CZ.json")
+    v = result.validation
+    np.testing.assert_array_equal(model.predict(v), v["model_CZ"].to_numpy())
+    assert model.provenance["software"].startswith("simplexspline")
+    assert model.metadata()["units"]["alpha"] == "rad"
+    # npz too
+    out2 = result.save(tmp_path / "npz", model_format="npz")
+    np.testing.assert_array_equal(AeroModel.load(out2 / "models" / "Cm.npz").predict(v),
+                                  v["model_Cm"].to_numpy())
+
+
+def test_failed_save_leaves_no_directory_and_keeps_the_old_one(result, tmp_path, monkeypatch):
+    import simplexspline.aero.report as report
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(report, "write_report", boom)
+    with pytest.raises(RuntimeError, match="disk full"):
+        result.save(tmp_path / "out")
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.setattr(report, "write_report", lambda res, out, progress=None: None)
+    result.save(tmp_path / "out")
+    (tmp_path / "out" / "marker").write_text("old")
+    monkeypatch.setattr(report, "write_report", boom)
+    with pytest.raises(RuntimeError):
+        result.save(tmp_path / "out")
+    assert (tmp_path / "out" / "marker").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_model_predict_on_named_columns_and_arrays(result, table):
+    model = result.results["CZ"].model
+    x = np.column_stack([table[v] for v in model.variables])
+    np.testing.assert_array_equal(model.predict(x), model.predict(table))
+    g = model.gradient(table.iloc[:50])
+    assert g.shape == (50, len(model.variables))
+    i = model.variables.index("qhat")
+    assert np.median(g[:, i]) == pytest.approx(-30.0, rel=0.05)   # dCZ/dqhat of true_cz
+    with pytest.raises(InputError, match="needs column"):
+        model.predict(table.drop(columns=["alpha"]))
+    with pytest.raises(InputError, match="NaN"):
+        model.predict(np.full((2, len(model.variables)), np.nan))
+
+
+def test_model_clamps_outside_the_identified_box(result):
+    model = result.results["CZ"].model
+    lo, hi = np.array(model.scaling.lower), np.array(model.scaling.upper)
+    far = (hi + 10 * (hi - lo))[None, :]
+    edge = hi[None, :]
+    assert model.predict(far) == pytest.approx(model.predict(edge))
+    assert np.isnan(model.predict(far, outside="nan")[0])
+
+
+def test_loading_a_plain_spline_file_is_refused(result, tmp_path):
+    path = result.results["CZ"].model.spline.save(tmp_path / "plain.json")
+    with pytest.raises(ModelFileError, match="without an aerodynamic model description"):
+        AeroModel.load(path)
+
+
+def test_unknown_variable_is_named(table):
+    settings = IdentificationSettings(
+        coefficients=("CZ",), structures={"CZ": Structure("CZ", ("alpha", "elevator"))},
+        select=False)
+    with pytest.raises(InputError, match=r"unknown variable\(s\) \['elevator'\]"):
+        identify(table, settings=settings)
+
+
+def test_nan_in_a_maneuver_is_reported(table):
+    bad = table.copy()
+    bad.loc[bad.index[bad["maneuver"] == 4][10], "alpha"] = np.nan
+    with pytest.raises(FlightDataError, match=r"NaN or inf in column\(s\) \['alpha'\].*"
+                                              r"maneuver\(s\) \[4\]"):
+        identify(bad, settings=IdentificationSettings(coefficients=("CZ",), select=False))
+
+
+def test_one_maneuver_cannot_be_validated(table):
+    one = table[table["maneuver"] == 0]
+    with pytest.raises(InputError, match="at least two"):
+        identify(one, settings=IdentificationSettings(coefficients=("CZ",), select=False))
+
+
+def test_missing_coefficient_columns_without_reconstruction(table):
+    with pytest.raises(FlightDataError, match="reconstruct='never'"):
+        identify(table.drop(columns=["Cm"]),
+                 settings=IdentificationSettings(reconstruct="never", select=False))
+
+
+def test_thin_simplices_warn(table):
+    s = Structure("CZ", ("alpha", "de", "mach"), 3, 1, (3, 3, 3))
+    settings = IdentificationSettings(coefficients=("CZ",), structures={"CZ": s},
+                                      select=False, thin_factor=50.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = identify(table, settings=settings)
+    assert any(issubclass(w.category, ThinDataWarning) for w in caught)
+    assert len(res.results["CZ"].thin) > 0 and res.warnings

@@ -1,0 +1,89 @@
+"""Validation scores (Eq. 54-55 with the square root) and maneuver splits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from simplexspline.aero.validation import (
+    autocorrelation,
+    fold_by_maneuver,
+    scores,
+    split_by_maneuver,
+)
+from simplexspline.errors import InputError
+
+
+def test_scores_formulas():
+    y = np.array([0.0, 1.0, 2.0, 3.0])
+    yhat = np.array([0.5, 1.0, 2.0, 2.5])
+    truth = np.array([0.0, 1.1, 2.0, 2.9])
+    s = scores(y, yhat, truth=truth, max_lag=2)
+    assert s["rms"] == pytest.approx(np.sqrt(0.5 / 4))
+    assert s["rrms"] == pytest.approx(np.sqrt(0.5 / 4) / 3.0)
+    assert s["r2"] == pytest.approx(1 - 0.5 / 5.0)
+    assert s["rms_true"] == pytest.approx(np.sqrt((0.25 + 0.01 + 0 + 0.16) / 4))
+    assert s["noise_rms"] == pytest.approx(np.sqrt(0.02 / 4))
+    assert s["rms_true_over_noise"] == pytest.approx(s["rms_true"] / s["noise_rms"])
+    assert len(s["autocorrelation"]) == 3 and s["autocorrelation"][0] == 1.0
+
+
+def test_scores_errors():
+    with pytest.raises(InputError, match="validation set is empty"):
+        scores(np.array([]), np.array([]))
+    with pytest.raises(InputError, match="NaN"):
+        scores(np.array([1.0, np.nan]), np.array([1.0, 2.0]))
+    with pytest.raises(InputError, match="equal length"):
+        scores(np.ones(3), np.ones(2))
+
+
+def test_white_residuals_are_white_and_lags_stay_inside_maneuvers():
+    rng = np.random.default_rng(0)
+    e = rng.standard_normal(20000)
+    s = scores(e, np.zeros_like(e), maneuvers=np.repeat(np.arange(20), 1000))
+    assert s["whiteness"] > 0.85
+    m = np.array([0, 0, 1, 1])
+    ac = autocorrelation(np.array([1.0, 1.0, -1.0, -1.0]), m, max_lag=1)
+    # (1*1 + (-1)(-1)) / 4; the pair across the boundary (1*-1) is skipped, else 0.25
+    assert ac[1] == pytest.approx(0.5)
+
+
+@settings(max_examples=30, deadline=None)
+@given(n=st.integers(2, 40), frac=st.floats(0.05, 0.95), seed=st.integers(0, 10))
+def test_split_holds_out_whole_maneuvers(n, frac, seed):
+    man = np.repeat(np.arange(n), 7)
+    val = split_by_maneuver(man, frac, seed=seed)
+    held = set(man[val])
+    assert held and len(held) < n
+    for m in range(n):   # whole maneuvers only
+        assert val[man == m].all() or not val[man == m].any()
+
+
+def test_split_draws_within_each_maneuver_type():
+    man = np.repeat(np.arange(40), 5)
+    kind = np.where(man % 4 == 0, "sos", "3211")
+    val = split_by_maneuver(man, 0.25, groups=kind)
+    assert set(kind[val]) == {"sos", "3211"}
+    assert len(set(man[val & (kind == "sos")])) == round(0.25 * 10)
+
+
+def test_split_errors():
+    with pytest.raises(InputError, match="at least two"):
+        split_by_maneuver(np.zeros(10), 0.3)
+    with pytest.raises(InputError, match=r"in \(0, 1\)"):
+        split_by_maneuver(np.arange(10), 0.0)
+
+
+def test_folds_are_whole_maneuvers_and_balanced():
+    rng = np.random.default_rng(1)
+    sizes = rng.integers(100, 1000, 30)
+    man = np.repeat(np.arange(30), sizes)
+    f = fold_by_maneuver(man, 3)
+    for m in range(30):
+        assert len(set(f[man == m])) == 1
+    load = np.bincount(f)
+    assert load.max() - load.min() <= sizes.max()
+    with pytest.raises(InputError, match="at least 5 maneuvers"):
+        fold_by_maneuver(np.arange(4), 5)
