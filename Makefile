@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(VENV)/bin/simplexspline demo
+	$(VENV)/bin/simplexspline identify -o identification
 
 test: $(STAMP)
 	$(PY) -m pytest -m "not slow"

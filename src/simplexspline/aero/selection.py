@@ -5,7 +5,8 @@ Selection is a greedy search from a starting structure. Each round tries every m
 
 * degree up / down (continuity kept below the degree),
 * refine / coarsen the triangulation along one variable (one more / fewer grid cell),
-* add a candidate variable / remove a variable,
+* add a candidate variable / remove a variable (at ``max_variables``: replace a
+  variable by a candidate),
 
 scores each candidate by the RMS of k-fold cross-validation in which whole maneuvers are
 held out (the normal equations of each fold are accumulated once; a fold's training
@@ -250,6 +251,16 @@ def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[s
                 if v in available and v not in s.variables:
                     out.append((f"add {v}", s.with_(variables=(*s.variables, v),
                                                     resolution=(*s.resolution, 1))))
+        else:  # at the variable limit: replace a variable by a candidate instead
+            for i, v in enumerate(s.variables):
+                for w in settings.candidates:
+                    if w in available and w not in s.variables:
+                        variables = list(s.variables)
+                        variables[i] = w
+                        res = list(s.resolution)
+                        res[i] = 1
+                        out.append((f"replace {v} by {w}", s.with_(
+                            variables=tuple(variables), resolution=tuple(res))))
         if s.ndim > 1:
             for i, v in enumerate(s.variables):
                 keep = [j for j in range(s.ndim) if j != i]
@@ -300,7 +311,13 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     step = max(1, int(np.ceil(n / settings.max_samples)))
     cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
     ys, mans = y[::step], np.asarray(maneuvers)[::step]
-    folds = fold_by_maneuver(mans, settings.folds, seed=seed)
+    # Fewer maneuvers than folds: leave one maneuver out instead.
+    k = min(settings.folds, len(np.unique(mans)))
+    if k < 2:
+        raise InputError("structure selection needs at least 2 identification maneuvers "
+                         "for cross-validation; give more maneuvers or use select=False "
+                         "(--no-select)")
+    folds = fold_by_maneuver(mans, k, seed=seed)
     available = [v for v in cols if np.ptp(np.asarray(cols[v], dtype=float)) > 0]
     budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
     seen: dict = {}

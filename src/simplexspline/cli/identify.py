@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -116,7 +117,7 @@ def _simulate(args, log):
 
 def handler(args: argparse.Namespace) -> int:
     from simplexspline.aero.flightdata import read_flight_data
-    from simplexspline.aero.identify import file_hash, identify
+    from simplexspline.aero.identify import ThinDataWarning, file_hash, identify
 
     t0 = time.perf_counter()
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, flush=True))
@@ -135,9 +136,16 @@ def handler(args: argparse.Namespace) -> int:
         df, meta = read_flight_data(args.data, nan="ignore")
         source = f"{args.data.name} ({file_hash(args.data)})"
     progress = not args.quiet and sys.stderr.isatty()
-    result = identify(df, meta, settings=settings, progress=progress, log=log, source=source)
+    with warnings.catch_warnings():
+        # thin-data warnings are printed after the table (result.warnings)
+        warnings.simplefilter("ignore", ThinDataWarning)
+        result = identify(df, meta, settings=settings, progress=progress, log=log,
+                          source=source)
     log("writing models, summary and report")
-    result.save(out, report=not args.no_report, model_format=args.format)
+    with warnings.catch_warnings():
+        # matplotlib's 3-D projection overflows harmlessly on off-screen points
+        warnings.filterwarnings("ignore", category=RuntimeWarning, module="mpl_toolkits")
+        result.save(out, report=not args.no_report, model_format=args.format)
     if not args.quiet:
         print()
         print(result.table())

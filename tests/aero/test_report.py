@@ -1,0 +1,170 @@
+"""The identification report (report.html, report.md, figures/) on a small synthetic run."""
+
+from __future__ import annotations
+
+import base64
+import re
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+pytest.importorskip("matplotlib")
+
+from simplexspline.aero.identify import PAPER_TABLE2, IdentificationSettings, identify
+from simplexspline.aero.report import write_report
+from simplexspline.aero.selection import SelectionSettings
+from simplexspline.aero.structure import Structure
+
+EVIL = "test<script>alert('x')</script>&co"
+
+
+def _truth(alpha, beta, mach, de, da, dr, phat, qhat, rhat) -> dict:
+    return {
+        "CX": -0.02 + 0.15 * alpha + 0.6 * alpha ** 2 - 0.03 * mach,
+        "CY": -0.9 * beta + 0.1 * dr,
+        "CZ": -0.1 - 4.5 * alpha - 0.5 * de + 0.8 * mach * alpha,
+        "Cl": -0.08 * beta + 0.05 * da - 0.4 * phat + 0.1 * rhat,
+        "Cm": -0.01 - 0.6 * alpha - 1.2 * de - 8.0 * qhat + 0.5 * alpha ** 2,
+        "Cn": 0.12 * beta - 0.06 * dr - 0.3 * rhat,
+    }
+
+
+def _synthetic(n_maneuvers: int = 10, n: int = 500, seed: int = 0) -> pd.DataFrame:
+    rng = np.random.default_rng(seed)
+    frames = []
+    for m in range(n_maneuvers):
+        t = np.arange(n) * 0.02
+        w = rng.uniform(0.5, 2.0, size=6)
+        ph = rng.uniform(0, 2 * np.pi, size=6)
+        alpha = 0.08 + 0.06 * np.sin(w[0] * t + ph[0]) + 0.02 * m / n_maneuvers
+        beta = 0.03 * np.sin(w[1] * t + ph[1])
+        mach = 0.35 + 0.04 * m + 0.01 * np.sin(0.3 * t)
+        de = -0.03 + 0.05 * np.sin(w[2] * t + ph[2])
+        da = 0.06 * np.sin(w[3] * t + ph[3])
+        dr = 0.05 * np.sin(w[4] * t + ph[4])
+        phat = 0.01 * np.sin(w[5] * t + ph[5])
+        qhat = 0.004 * np.cos(w[0] * t + ph[0])
+        rhat = 0.005 * np.cos(w[4] * t + ph[4])
+        truth = _truth(alpha, beta, mach, de, da, dr, phat, qhat, rhat)
+        cols = {"maneuver": np.full(n, m), "t": t,
+                "maneuver_type": ["3211-elevator" if m % 2 else "sum-of-sines"] * n,
+                "alpha": alpha, "beta": beta, "mach": mach, "tas": 340.0 * mach,
+                "de": de, "da": da, "dr": dr, "phat": phat, "qhat": qhat, "rhat": rhat,
+                "p": phat * 2 * 200 / 9.0, "q": qhat * 200 / 3.5, "r": rhat * 2 * 200 / 9.0}
+        for c, v in truth.items():
+            cols[c] = v + rng.normal(0.0, 1e-3, n)
+            cols[f"true_{c}"] = v
+        frames.append(pd.DataFrame(cols))
+    return pd.concat(frames, ignore_index=True)
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    df = _synthetic()
+    structures = {"CZ": Structure("CZ", ("alpha", "de", "mach"), 2, 1),
+                  "Cm": Structure("Cm", ("alpha", "qhat", "de"), 2, 1)}
+    settings = IdentificationSettings(
+        coefficients=("CZ", "Cm"), structures=structures, select=True,
+        selection=SelectionSettings(max_rounds=1, moves=("degree",), max_samples=3000))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = identify(df, {"aircraft": EVIL, "note": "a < b & c > d"}, settings=settings)
+    outdir = tmp_path_factory.mktemp("report") / "nested" / "out"
+    lines = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        path = write_report(res, outdir, progress=lines.append)
+    return res, outdir, path, lines
+
+
+def test_files_written(report):
+    _res, outdir, path, lines = report
+    assert path == outdir / "report.html"
+    assert path.is_file() and (outdir / "report.md").is_file()
+    pngs = sorted((outdir / "figures").glob("*.png"))
+    assert len(pngs) >= 10
+    for p in pngs:
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert lines and all(isinstance(x, str) for x in lines)
+
+
+def test_html_self_contained(report):
+    _, _, path, _ = report
+    text = path.read_text(encoding="utf-8")
+    srcs = re.findall(r"""\bsrc\s*=\s*["']?([^"' >]*)""", text, flags=re.IGNORECASE)
+    assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
+    assert "<link" not in text.lower() and "<script" not in text.lower()
+    assert "href=\"http" not in text and "@import" not in text
+    first = re.search(r"data:image/png;base64,([A-Za-z0-9+/=]+)", text).group(1)
+    assert base64.b64decode(first)[:4] == b"\x89PNG"
+
+
+def test_html_contains_table_numbers(report):
+    res, _, path, _ = report
+    text = path.read_text(encoding="utf-8")
+    for c, r in res.results.items():
+        v = r.validation
+        assert f"{100 * v['rrms']:.2f} %" in text
+        assert f"{v['rms']:.3e}" in text
+        assert f"{v['r2']:.4f}" in text
+        assert f"{v['rms_true']:.3e}" in text and f"{v['noise_rms']:.3e}" in text
+        assert f"{100 * PAPER_TABLE2[c]:.2f} %" in text
+
+
+def test_coefficient_sections(report):
+    res, _, path, _ = report
+    text = path.read_text(encoding="utf-8")
+    md = (path.parent / "report.md").read_text(encoding="utf-8")
+    for c, r in res.results.items():
+        assert f'id="coef-{c}"' in text
+        assert r.structure.label() in text and r.structure.label() in md
+        for fig in ("slices", "validation", "diagnostics", "triangulation", "selection"):
+            assert f"figures/{c}_{fig}.png" in md
+        # every tried structure of the selection history is listed
+        for t in r.history:
+            assert t.structure.label() in text
+    assert "data_projections.png" in md and "maneuver_0.png" in md
+
+
+def test_escaping(report):
+    _, _, path, _ = report
+    text = path.read_text(encoding="utf-8")
+    md = (path.parent / "report.md").read_text(encoding="utf-8")
+    assert "<script" not in text and "alert(" in text
+    assert "test&lt;script&gt;alert(&#x27;x&#x27;)&lt;/script&gt;&amp;co" in text
+    assert "a &lt; b &amp; c &gt; d" in text
+    assert "<script" not in md and "&lt;script" in md
+
+
+def test_markdown_figures_exist(report):
+    _, outdir, _, _ = report
+    md = (outdir / "report.md").read_text(encoding="utf-8")
+    refs = re.findall(r"\]\((figures/[^)]+\.png)\)", md)
+    assert len(refs) >= 10
+    for ref in refs:
+        assert (outdir / ref).is_file(), ref
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_render_jobs_in_order(workers):
+    from simplexspline.aero.report import _render
+
+    lines = []
+    jobs = [(f"job {i}", lambda i=i: i * i) for i in range(5)]
+    assert _render(jobs, workers, lines.append) == [0, 1, 4, 9, 16]
+    assert len(lines) == 5
+
+
+def test_projected_edges_unique():
+    from simplexspline.aero.report import _projected_edges
+
+    # two triangles sharing an edge: 5 distinct edges
+    pts = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    seg = _projected_edges(pts, np.array([[0, 1, 2], [0, 2, 3]]))
+    assert seg.shape == (5, 2, 2)
+    # a tetrahedron projected on (x, y): vertex 3 falls on vertex 0, leaving 3 segments
+    pts3 = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    seg3 = _projected_edges(pts3[:, :2], np.array([[0, 1, 2, 3]]))
+    assert len(seg3) == 3 and np.all(np.any(seg3[:, 0] != seg3[:, 1], axis=1))
