@@ -19,6 +19,10 @@ Benchmarks
    (measured in a child process).
 3. n = 3, d = 4, r = 1, 5,400 simplices, 2,000,000 points: fit time.
 4. predict throughput (n = 5, d = 3, benchmark 1's spline) and single-point latency.
+5. Dask: benchmark 2's data in 20 partitions of a Dask array, generated and persisted on a
+   2-worker ``dask.distributed.LocalCluster`` (processes, one thread each), fitted by
+   ``simplexspline.distributed.fit_dask``: time (cluster start-up and data generation not
+   counted) and the max coefficient difference from benchmark 2's in-memory fit.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ import resource
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -110,10 +115,26 @@ def _space_setup(tri, d, r):
     return space
 
 
-def bench_large_n(rows: list, quick: bool) -> None:
+#: Benchmarks 2 and 5: the data come in this many partitions (generated per partition, so
+#: that the in-memory and the Dask fits see the same numbers).
+NPARTS = 20
+
+
+def _large_part(i: int, size: int):
+    """Partition i of benchmark 2's data: (x, y)."""
+    rng = np.random.default_rng([2, i])
+    x = rng.random((size, 5))
+    return x, target(x) + 0.01 * rng.standard_normal(size)
+
+
+def _large_space() -> SplineSpace:
+    return SplineSpace(Triangulation.grid(np.zeros(5), np.ones(5), (2, 2, 2, 1, 1)), 3, 1)
+
+
+def bench_large_n(rows: list, quick: bool, coef_file: str) -> None:
     """Benchmark 2 in a child process, to measure its peak memory alone."""
     npts = 1_000_000 if quick else 10_000_000
-    out = subprocess.run([sys.executable, __file__, "--child-large", str(npts)],
+    out = subprocess.run([sys.executable, __file__, "--child-large", str(npts), coef_file],
                          capture_output=True, text=True, check=True)
     res = json.loads(out.stdout.strip().splitlines()[-1])
     rows.append(("2 large N: n=5 d=3 r=1", f"J={res['nsimplex']}, N={npts:,}",
@@ -122,19 +143,69 @@ def bench_large_n(rows: list, quick: bool) -> None:
                  "fit <= 15 s, RSS <= 2 GB"))
 
 
-def _child_large(npts: int) -> None:
-    rng = np.random.default_rng(2)
+def _child_large(npts: int, coef_file: str | None) -> None:
     t0 = time.perf_counter()
-    x = rng.random((npts, 5))
-    y = target(x) + 0.01 * rng.standard_normal(npts)
+    size = npts // NPARTS
+    x = np.empty((size * NPARTS, 5))
+    y = np.empty(size * NPARTS)
+    for i in range(NPARTS):
+        x[i * size:(i + 1) * size], y[i * size:(i + 1) * size] = _large_part(i, size)
     t1 = time.perf_counter()
-    tri = Triangulation.grid(np.zeros(5), np.ones(5), (2, 2, 2, 1, 1))
-    space = SplineSpace(tri, 3, 1)
-    space.fit(x, y)
+    space = _large_space()
+    spline = space.fit(x, y)
     t2 = time.perf_counter()
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    print(json.dumps({"nsimplex": tri.nsimplex, "fit": t2 - t1, "gen": t1 - t0, "rss_mb": rss,
+    if coef_file:
+        np.save(coef_file, spline.coefficients)
+    print(json.dumps({"nsimplex": space.triangulation.nsimplex, "fit": t2 - t1,
+                      "gen": t1 - t0, "rss_mb": rss,
                       "data_mb": (x.nbytes + y.nbytes) / 2**20}))
+
+
+def bench_dask(rows: list, quick: bool, coef_file: str, repeats: int) -> None:
+    """Benchmark 5 in a child process (its own cluster)."""
+    npts = 1_000_000 if quick else 10_000_000
+    out = subprocess.run([sys.executable, __file__, "--child-dask", str(npts), coef_file,
+                          str(repeats)], capture_output=True, text=True, check=True)
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    rows.append(("5 Dask: 2-worker LocalCluster", f"N={npts:,} in {NPARTS} partitions",
+                 (f"fit_dask {res['fit']:.2f} s (cluster start {res['start']:.1f} s, data "
+                  "generation on the workers not counted)"),
+                 (f"max abs. coefficient difference from in-memory {res['diff']:.1e} "
+                  f"(coefficients up to {res['cmax']:.1f})"), "equal to round-off"))
+
+
+def _child_dask(npts: int, coef_file: str, repeats: int) -> None:
+    import dask
+    import dask.array as da
+    from dask.distributed import Client, LocalCluster, wait
+
+    from simplexspline.distributed import fit_dask
+
+    size = npts // NPARTS
+    t0 = time.perf_counter()
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=40)
+    client = Client(cluster)
+    t1 = time.perf_counter()
+    parts = [dask.delayed(_large_part, nout=2)(i, size) for i in range(NPARTS)]
+    x = da.concatenate([da.from_delayed(p[0], (size, 5), float) for p in parts])
+    y = da.concatenate([da.from_delayed(p[1], (size,), float) for p in parts])
+    x, y = client.persist([x, y])
+    wait([x, y])
+    space = _large_space()
+    space.system  # noqa: B018 (set-up, as in benchmark 2's space.fit: cached per space)
+    t_fit, spline = median_time(lambda: fit_dask(space, x, y=y), repeats)
+    if os.path.exists(coef_file):
+        ref = np.load(coef_file)
+    else:  # benchmark 2 not run: the in-memory fit of the same data here
+        xs, ys = zip(*(_large_part(i, size) for i in range(NPARTS)))
+        ref = space.fit(np.concatenate(xs), np.concatenate(ys)).coefficients
+    client.close()
+    cluster.close()
+    print(json.dumps({"fit": t_fit, "start": t1 - t0,
+                      "diff": float(np.abs(spline.coefficients - ref).max()),
+                      "cmax": float(np.abs(ref).max())}))
 
 
 def bench_large_tri(rows: list, repeats: int, quick: bool) -> None:
@@ -176,22 +247,32 @@ def main(argv=None) -> int:
     ap.add_argument("--only", type=int, nargs="*", default=None)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--child-large", type=int, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--child-large", nargs="+", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--child-dask", nargs="+", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child_large is not None:
-        _child_large(args.child_large)
+        _child_large(int(args.child_large[0]), args.child_large[1]
+                     if len(args.child_large) > 1 else None)
         return 0
-    only = set(args.only or [1, 2, 3, 4])
+    if args.child_dask is not None:
+        _child_dask(int(args.child_dask[0]), args.child_dask[1], int(args.child_dask[2]))
+        return 0
+    only = set(args.only or [1, 2, 3, 4, 5])
+    tmp = tempfile.TemporaryDirectory()
+    coef_file = os.path.join(tmp.name, "large_coef.npy")
     rows: list = []
     spline = x = None
     if only & {1, 4}:
         spline, x = bench_paper(rows, args.repeats, args.quick)
     if 2 in only:
-        bench_large_n(rows, args.quick)
+        bench_large_n(rows, args.quick, coef_file)
     if 3 in only:
         bench_large_tri(rows, args.repeats, args.quick)
     if 4 in only:
         bench_predict(rows, spline, x, args.repeats, args.quick)
+    if 5 in only:
+        bench_dask(rows, args.quick, coef_file, max(1, args.repeats // 2))
+    tmp.cleanup()
     if 1 not in only:
         rows = [r for r in rows if not r[0].startswith("1 ")]
     print(f"simplexspline fit benchmarks ({os.cpu_count()} cores; medians of "

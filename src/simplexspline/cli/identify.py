@@ -70,8 +70,9 @@ def _settings(args):
 
     settings = IdentificationSettings()
     if args.data is None:  # the main job: a shorter search on the small default campaign
-        settings = replace(settings, selection=replace(settings.selection, max_rounds=4,
-                                                       max_samples=60_000))
+        # (a full search on 5-variable structures took 34 min here: keep it small)
+        settings = replace(settings, selection=replace(
+            settings.selection, max_rounds=3, max_samples=40_000, max_coefficients=3000))
     if args.config is not None:
         settings = load_config(args.config, settings)
     changes = {}

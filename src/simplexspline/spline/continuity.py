@@ -129,6 +129,9 @@ class SmoothnessSystem:
     """
 
     def __init__(self, cond: Conditions, ncols: int):
+        #: Data-independent work of the solver (B-net points, sparse Cholesky ordering),
+        #: kept between fits on this space.
+        self.solver_cache: dict = {}
         self.H_full = cond.matrix
         order = cond.order
         rows0 = np.nonzero(order == 0)[0]

@@ -12,17 +12,22 @@ Kernels
 * :func:`basis_cols`: B-form basis values (d_hat, N), level by level over blocks of points.
 * :func:`evaluate`: barycentric coordinates, basis and the dot product with the simplex's
   coefficients fused, without materialising the basis matrix.
+* :func:`extend_add`: the scatter-add of a child's update matrix into its parent's frontal
+  matrix in the sparse Cholesky of :mod:`simplexspline.spline.solve` (lower triangles).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+from functools import lru_cache
 
 import numpy as np
 
 from simplexspline.spline.bform import _monomial_plan, _scale
 
-__all__ = ["HAVE_NUMBA", "basis_plan", "grid_locate", "basis_cols", "sorted_design", "evaluate"]
+__all__ = ["HAVE_NUMBA", "one_blas_thread", "basis_plan", "grid_locate", "basis_cols", "sorted_design", "sorted_design_t", "evaluate",
+           "extend_add", "gram_blocks", "fused_normal"]
 
 try:  # pragma: no cover - exercised where numba is installed
     if os.environ.get("SIMPLEXSPLINE_NO_NUMBA"):
@@ -35,8 +40,34 @@ except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
 
+_CONTROLLER: list = []
+
+
+def one_blas_thread():
+    """Context limiting BLAS to one thread (a no-op without threadpoolctl).
+
+    Used around many small or medium BLAS/LAPACK calls (per-simplex products, small
+    frontal matrices, triangular solves): threads gain little there, and on a loaded
+    machine (or under Dask workers sharing the cores) OpenBLAS's spinning threads make
+    them several times slower.
+    """
+    if not _CONTROLLER:
+        try:
+            from threadpoolctl import ThreadpoolController
+
+            _CONTROLLER.append(ThreadpoolController())
+        except (ImportError, OSError, RuntimeError):  # pragma: no cover - no threadpoolctl
+            _CONTROLLER.append(None)
+    ctl = _CONTROLLER[0]
+    if ctl is None:  # pragma: no cover
+        return contextlib.nullcontext()
+    return ctl.limit(limits=1, user_api="blas")
+
+
+@lru_cache(maxsize=64)
 def basis_plan(n: int, d: int):
-    """Flattened monomial plan for degree d: (parents, firsts, offsets, scale)."""
+    """Flattened monomial plan for degree d: (parents, firsts, offsets, scale), cached per
+    (n, d) (shared arrays: do not modify)."""
     parents, firsts, offsets = [], [], [0]
     for k in range(2, d + 1):
         p, f = _monomial_plan(n, k)
@@ -55,44 +86,48 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
     def _grid_locate(x, lower, step, shape, table, nfact, tol, out):
         npts, n = x.shape
         rel = np.empty(n)
-        idx = np.empty(n, dtype=np.int64)
+        lo = np.empty(n)
+        hi = np.empty(n)
+        fact = np.empty(n, dtype=np.int64)  # fact[k] = (n - 1 - k)!
+        for k in range(n):
+            lo[k] = -tol * shape[k]
+            hi[k] = shape[k] * (1.0 + tol)
+            f = 1
+            for q in range(2, n - k):
+                f *= q
+            fact[k] = f
+        pos = np.empty(n, dtype=np.int64)
+        perm = np.empty(n, dtype=np.int64)
         for i in range(npts):
             inside = True
             flat = 0
             for k in range(n):
                 r = (x[i, k] - lower[k]) / step[k]
-                if r < -tol * shape[k] or r > shape[k] * (1.0 + tol):
-                    inside = False
-                c = int(np.floor(r))
-                if c < 0:
-                    c = 0
-                elif c > shape[k] - 1:
-                    c = shape[k] - 1
+                inside = inside & (r >= lo[k]) & (r <= hi[k])
+                c = min(max(int(np.floor(r)), 0), shape[k] - 1)
                 rel[k] = r - c
                 flat = flat * shape[k] + c
             if not inside:
                 out[i] = -1
                 continue
-            # Stable descending argsort of the local coordinates (insertion sort).
-            for k in range(n):
-                idx[k] = k
-            for k in range(1, n):
-                j = k
-                while j > 0 and rel[idx[j - 1]] < rel[idx[j]]:
-                    t = idx[j - 1]
-                    idx[j - 1] = idx[j]
-                    idx[j] = t
-                    j -= 1
+            # Stable descending argsort of the local coordinates, branch-free: the rank of
+            # each coordinate, then the permutation's Lehmer code.
+            for a in range(n):
+                p = 0
+                ra = rel[a]
+                for b in range(n):
+                    rb = rel[b]
+                    p += (rb > ra) | ((rb == ra) & (b < a))
+                pos[a] = p
+            for a in range(n):
+                perm[pos[a]] = a
             rank = 0
             for k in range(n - 1):
                 smaller = 0
-                for m in range(k + 1, n):
-                    if idx[m] < idx[k]:
-                        smaller += 1
-                f = 1
-                for m in range(2, n - k):
-                    f *= m
-                rank += smaller * f
+                pk = perm[k]
+                for q in range(k + 1, n):
+                    smaller += perm[q] < pk
+                rank += smaller * fact[k]
             out[i] = table[flat * nfact + rank]
         return out
 
@@ -153,12 +188,15 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
             bt[0, i] = 1.0 - total
 
     @numba.njit(cache=True, nogil=True)
-    def _evaluate(x, sid, origin, tinv, coef, parents, firsts, offsets, scale, out):
+    def _evaluate(x, sid, origin, tinv, cs, parents, firsts, offsets, out):
+        """Values at points x in simplices sid of the B-form with scaled coefficients
+        cs = coef * scale (the multinomial factors folded in)."""
         npts, n = x.shape
-        m = scale.shape[0]
+        m = cs.shape[1]
         bt = np.empty((n + 1, BLOCK))
         s1 = np.empty((max(m, n + 1), BLOCK))
         s2 = np.empty((max(m, n + 1), BLOCK))
+        m4 = m - m % 4
         for i0 in range(0, npts, BLOCK):
             i1 = min(i0 + BLOCK, npts)
             _block_barycentric(x, sid, i0, i1, origin, tinv, bt)
@@ -168,10 +206,19 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
                 if j < 0:
                     out[i0 + i] = np.nan
                     continue
-                val = 0.0
-                for k in range(m):
-                    val += mono[k, i] * scale[k] * coef[j, k]
-                out[i0 + i] = val
+                # four partial sums: independent dependency chains
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                for k in range(0, m4, 4):
+                    a0 += mono[k, i] * cs[j, k]
+                    a1 += mono[k + 1, i] * cs[j, k + 1]
+                    a2 += mono[k + 2, i] * cs[j, k + 2]
+                    a3 += mono[k + 3, i] * cs[j, k + 3]
+                for k in range(m4, m):
+                    a0 += mono[k, i] * cs[j, k]
+                out[i0 + i] = (a0 + a1) + (a2 + a3)
         return out
 
     @numba.njit(cache=True, nogil=True)
@@ -200,6 +247,211 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
                     out[row, k] = mono[k, i] * scale[k]
         return out
 
+
+
+    @numba.njit(cache=True, nogil=True)
+    def _sorted_design_t(x, sid, pos, origin, tinv, parents, firsts, offsets, scale, out,
+                         perm):
+        """Basis values (d_hat, N) in simplex-sorted column order: a counting sort, then
+        blocks of sorted points (barycentric coordinates, monomials) written contiguously
+        along the rows of ``out``. pos[j] is the first column of simplex j (advanced in
+        place); perm receives the sorted position of each point."""
+        npts, n = x.shape
+        m = scale.shape[0]
+        src = np.empty(npts, dtype=np.int64)
+        for i in range(npts):
+            j = sid[i]
+            r = pos[j]
+            pos[j] = r + 1
+            perm[i] = r
+            src[r] = i
+        bt = np.empty((n + 1, BLOCK))
+        s1 = np.empty((max(m, n + 1), BLOCK))
+        s2 = np.empty((max(m, n + 1), BLOCK))
+        xs = np.empty((BLOCK, n))
+        ss = np.empty(BLOCK, dtype=np.int64)
+        for i0 in range(0, npts, BLOCK):
+            i1 = min(i0 + BLOCK, npts)
+            for i in range(i1 - i0):
+                p = src[i0 + i]
+                ss[i] = sid[p]
+                for q in range(n):
+                    xs[i, q] = x[p, q]
+            _block_barycentric(xs, ss, 0, i1 - i0, origin, tinv, bt)
+            mono = _block_monomials(bt, 0, i1 - i0, parents, firsts, offsets, s1, s2)
+            for k in range(m):
+                sc = scale[k]
+                for i in range(i1 - i0):
+                    out[k, i0 + i] = mono[k, i] * sc
+        return out
+
+    @numba.njit(cache=True, nogil=True)
+    def _gram_blocks(cols, ws, wy, ends, counts, js, gram, rhs):
+        """gram[j] += X_j' W X_j and rhs[j] += X_j' W y for the simplices js, with the basis
+        columns X_j' = cols[:, ends[j]-counts[j]:ends[j]] (ws of length 0: unit weights)."""
+        m = cols.shape[0]
+        weighted = ws.shape[0] > 0
+        cap = 0
+        for jj in range(js.shape[0]):
+            cap = max(cap, counts[js[jj]])
+        rows = np.empty((cap, m))  # the block transposed: each point's values contiguous
+        acc = np.empty((m, m))
+        for jj in range(js.shape[0]):
+            j = js[jj]
+            s = ends[j] - counts[j]
+            c = counts[j]
+            for k in range(m):
+                for p in range(c):
+                    rows[p, k] = cols[k, s + p]
+            acc[:, :] = 0.0
+            for p in range(c):
+                w = ws[s + p] if weighted else 1.0
+                yw = wy[s + p]
+                for k in range(m):
+                    rk = rows[p, k] * w
+                    for q in range(m):  # full rows: fixed length, vectorised
+                        acc[k, q] += rk * rows[p, q]
+                    rhs[j, k] += rows[p, k] * yw
+            for k in range(m):
+                for q in range(m):
+                    gram[j, k, q] += acc[k, q]
+
+    @numba.njit(cache=True, nogil=True)
+    def _fused_normal(dsyrk, x, sid, pos, ws, wy, origin, tinv, parents, firsts, offsets,
+                      scale, gram, rhs):
+        """See :func:`fused_normal`; dsyrk is BLAS dsyrk as a ctypes function (passed as an
+        argument, not a global, so that numba can cache the compiled kernel on disk)."""
+        npts, n = x.shape
+        m = scale.shape[0]
+        nsimp = pos.shape[0] - 1
+        weighted = ws.shape[0] > 0
+        # counting sort of the points by simplex (pos: first slot of each simplex)
+        fill = pos[:-1].copy()
+        src = np.empty(npts, dtype=np.int64)
+        for i in range(npts):
+            j = sid[i]
+            src[fill[j]] = i
+            fill[j] += 1
+        tile = np.empty((m, TILE))
+        bt = np.empty((n + 1, BLOCK))
+        s1 = np.empty((max(m, n + 1), BLOCK))
+        s2 = np.empty((max(m, n + 1), BLOCK))
+        xs = np.empty((BLOCK, n))
+        ss = np.empty(BLOCK, dtype=np.int64)
+        sw = np.empty(BLOCK)
+        wyb = np.empty(BLOCK)
+        uplo = np.array([ord("U")], dtype=np.uint8)  # the C-order lower triangle
+        trans = np.array([ord("T")], dtype=np.uint8)
+        n_ = np.array([m], dtype=np.int32)
+        k_ = np.zeros(1, dtype=np.int32)
+        lda = np.array([TILE], dtype=np.int32)
+        one = np.ones(1)
+        for j in range(nsimp):
+            if pos[j + 1] == pos[j]:
+                continue
+            g = gram[j]
+            for t0 in range(pos[j], pos[j + 1], TILE):
+                tw = min(TILE, pos[j + 1] - t0)
+                for b0 in range(0, tw, BLOCK):
+                    i0 = t0 + b0
+                    w = min(BLOCK, tw - b0)
+                    for i in range(w):
+                        p = src[i0 + i]
+                        ss[i] = j
+                        wyb[i] = wy[p]
+                        for q in range(n):
+                            xs[i, q] = x[p, q]
+                    _block_barycentric(xs, ss, 0, w, origin, tinv, bt)
+                    mono = _block_monomials(bt, 0, w, parents, firsts, offsets, s1, s2)
+                    for k in range(m):
+                        sc = scale[k]
+                        acc = 0.0
+                        for i in range(w):
+                            v = mono[k, i] * sc
+                            tile[k, b0 + i] = v
+                            acc += v * wyb[i]
+                        rhs[j, k] += acc
+                    if weighted:  # W^(1/2) X_j: then dsyrk gives X_j' W X_j
+                        for i in range(w):
+                            sw[i] = np.sqrt(ws[src[i0 + i]])
+                        for k in range(m):
+                            for i in range(w):
+                                tile[k, b0 + i] *= sw[i]
+                k_[0] = tw
+                dsyrk(uplo.ctypes, trans.ctypes, n_.ctypes, k_.ctypes, one.ctypes,
+                      tile.ctypes, lda.ctypes, one.ctypes, g.ctypes, n_.ctypes)
+            for k in range(m):
+                for q in range(k):
+                    g[q, k] = g[k, q]
+        return gram
+
+    @numba.njit(cache=True, nogil=True)
+    def _extend_add(front, idx, upd):
+        m = idx.shape[0]
+        for j in range(m):
+            jj = idx[j]
+            for i in range(j, m):
+                front[idx[i], jj] += upd[i, j]
+
+
+#: Points per dsyrk call in :func:`fused_normal` (the tile of basis values stays in cache).
+TILE = 1024
+
+_DSYRK: list = []
+
+
+def _dsyrk():
+    """BLAS dsyrk from scipy's Cython BLAS as a ctypes function, or None."""
+    if not _DSYRK:
+        try:
+            import ctypes
+
+            from numba.extending import get_cython_function_address
+
+            ptr = ctypes.c_void_p
+            _DSYRK.append(ctypes.CFUNCTYPE(None, *([ptr] * 10))(
+                get_cython_function_address("scipy.linalg.cython_blas", "dsyrk")))
+        except (ImportError, AttributeError, OSError, TypeError, ValueError):  # pragma: no cover
+            _DSYRK.append(None)
+    return _DSYRK[0]
+
+
+def fused_normal(x, sid, counts, w, wy, origin, tinv, d: int, gram, rhs) -> bool:
+    """Accumulate ``gram[j] += X_j' W X_j`` and ``rhs[j] += X_j' W y`` for points located in
+    simplices ``sid`` (all >= 0) in one compiled pass: points sorted by simplex, basis
+    values formed in cache-sized tiles and multiplied by BLAS ``dsyrk`` straight into the
+    blocks; the design matrix is never stored. ``wy`` is ``w * y`` (or ``y``). Returns False
+    (nothing done) when the kernel is unavailable."""
+    if not HAVE_NUMBA or d == 0:
+        return False
+    dsyrk = _dsyrk()
+    if dsyrk is None:  # pragma: no cover
+        return False
+    parents, firsts, offsets, scale = basis_plan(x.shape[1], d)
+    pos = np.zeros(len(counts) + 1, dtype=np.int64)
+    np.cumsum(counts, out=pos[1:])
+    ws = np.zeros(0) if w is None else np.ascontiguousarray(w, dtype=float)
+    _fused_normal(dsyrk, np.ascontiguousarray(x), sid, pos, ws,
+                  np.ascontiguousarray(wy, dtype=float), origin, tinv, parents, firsts,
+                  offsets, scale, gram, rhs)
+    return True
+
+
+def gram_blocks(cols, ws, wy, ends, counts, js, gram, rhs) -> None:
+    """Accumulate the normal-equation blocks of simplices ``js`` in place from the basis
+    columns (d_hat, N) of :func:`sorted_design_t` (compiled; see
+    :meth:`NormalEquations._add_located` for the BLAS path used for large blocks)."""
+    _gram_blocks(cols, np.zeros(0) if ws is None else ws, wy, ends, counts,
+                 js.astype(np.int64), gram, rhs)
+
+
+def extend_add(front: np.ndarray, idx: np.ndarray, upd: np.ndarray) -> None:
+    """``front[idx[i], idx[j]] += upd[i, j]`` for ``i >= j`` (idx increasing, so the lower
+    triangle of ``upd`` lands in the lower triangle of ``front``), in place."""
+    if HAVE_NUMBA:
+        _extend_add(front, idx, upd)
+    else:
+        front[np.ix_(idx, idx)] += np.tril(upd)
 
 
 def grid_locate(x, lower, step, shape, table, nfact, tol) -> np.ndarray:
@@ -235,6 +487,23 @@ def sorted_design(x, sid, counts, origin, tinv, d: int):
     return out, perm
 
 
+def sorted_design_t(x, sid, counts, origin, tinv, d: int):
+    """Basis values (d_hat, N) of points located in simplices ``sid`` (all >= 0), columns in
+    simplex-sorted order (simplex j's columns contiguous, in input order), and the sorted
+    position of every input point."""
+    parents, firsts, offsets, scale = basis_plan(x.shape[1], d)
+    out = np.empty((len(scale), len(x)))
+    perm = np.empty(len(x), dtype=np.int64)
+    pos = (np.cumsum(counts) - counts).astype(np.int64)
+    if d == 0:
+        perm[:] = np.argsort(sid, kind="stable").argsort()
+        out[:] = 1.0
+        return out, perm
+    _sorted_design_t(np.ascontiguousarray(x), sid, pos, origin, tinv, parents, firsts,
+                     offsets, scale, out, perm)
+    return out, perm
+
+
 def evaluate(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
     """Spline values at points x (N, n) in simplices sid (N,; -1 gives NaN), compiled."""
     parents, firsts, offsets, scale = basis_plan(x.shape[1], d)
@@ -242,5 +511,5 @@ def evaluate(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
     if d == 0:
         out[:] = np.where(sid >= 0, coef[np.maximum(sid, 0), 0], np.nan)
         return out
-    return _evaluate(np.ascontiguousarray(x), sid, origin, tinv, coef, parents, firsts,
-                     offsets, scale, out)
+    return _evaluate(np.ascontiguousarray(x), sid, origin, tinv, coef * scale, parents,
+                     firsts, offsets, out)

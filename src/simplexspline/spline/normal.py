@@ -19,7 +19,18 @@ from simplexspline.spline.validation import as_points, as_values, as_weights
 __all__ = ["NormalEquations"]
 
 #: Points processed per chunk when accumulating (bounds temporary memory).
-CHUNK = 1 << 17
+CHUNK = 1 << 18
+
+#: Calls of ``add`` with at least this many points use the fused compiled kernel (basis
+#: tiles and BLAS dsyrk in one pass); smaller ones the two-step path, whose per-block
+#: overhead is negligible there.
+FUSED_MIN_POINTS = 100_000
+
+#: Simplices with at most this many points in a chunk have their blocks accumulated by a
+#: compiled loop (numba) rather than one BLAS product each, when a chunk has at least
+#: SMALL_MANY of them (below that the per-block products cost little).
+SMALL_BLOCK = 64
+SMALL_MANY = 256
 
 
 class NormalEquations:
@@ -92,36 +103,43 @@ class NormalEquations:
                 f"(first rows: {out[:5].tolist()}); drop them or enlarge the triangulation",
                 out,
             )
-        for s in range(0, len(pts), CHUNK):
-            e = s + CHUNK
-            self._add_located(pts[s:e], vals[s:e], None if w is None else w[s:e], sid[s:e])
+        fused = len(pts) >= FUSED_MIN_POINTS
+        with kernels.one_blas_thread():
+            for s in range(0, len(pts), CHUNK):
+                e = s + CHUNK
+                self._add_located(pts[s:e], vals[s:e], None if w is None else w[s:e],
+                                  sid[s:e], fused)
         return self
 
-    def _add_located(self, pts, vals, w, sid) -> None:
+    def _add_located(self, pts, vals, w, sid, fused: bool = False) -> None:
         """Accumulate points whose simplices are known (kernel, no validation)."""
         tri = self.triangulation
         nsimp = tri.nsimplex
         counts = np.bincount(sid, minlength=nsimp)
         self.counts += counts
         ends = np.cumsum(counts)
+        wy = vals if w is None else w * vals
+        if fused and kernels.fused_normal(pts, sid, counts, w, wy, tri._origin, tri._tinv, self.degree,
+                                self.XtWX, self.XtWy):
+            self.wsum += counts if w is None else np.bincount(sid, weights=w, minlength=nsimp)
+            self.ytWy += float(wy @ vals)
+            return
         if kernels.HAVE_NUMBA:
-            # Basis rows written directly in simplex-sorted order: X_j = rows[s:e].
-            rows, perm = kernels.sorted_design(pts, sid, counts, tri._origin, tri._tinv,
-                                               self.degree)
+            # Basis columns written directly in simplex-sorted order: X_j' = cols[:, s:e].
+            cols, perm = kernels.sorted_design_t(pts, sid, counts, tri._origin, tri._tinv,
+                                                 self.degree)
             ys = np.empty_like(vals)
             ys[perm] = vals
             ws = None
             if w is not None:
                 ws = np.empty_like(w)
                 ws[perm] = w
-            blocks = lambda s, e: rows[s:e].T  # noqa: E731  (d_hat, n_j) view
         else:
             order = np.argsort(sid, kind="stable")
             b = tri._locator_barycentric(pts[order], sid[order])
-            bt = basis_values_t(b.T, self.degree)  # (d_hat, N)
+            cols = basis_values_t(b.T, self.degree)  # (d_hat, N)
             ys = vals[order]
             ws = None if w is None else w[order]
-            blocks = lambda s, e: np.ascontiguousarray(bt[:, s:e])  # noqa: E731
         if ws is None:
             self.wsum += counts
             self.ytWy += float(ys @ ys)
@@ -130,9 +148,17 @@ class NormalEquations:
             self.wsum += np.bincount(sid, weights=w, minlength=nsimp)
             wy = ws * ys
             self.ytWy += float(wy @ ys)
-        for j in np.nonzero(counts)[0]:
+        small = np.nonzero((counts > 0) & (counts <= SMALL_BLOCK))[0]
+        if kernels.HAVE_NUMBA and len(small) >= SMALL_MANY:
+            # Many small blocks (large triangulations): one compiled pass instead of a BLAS
+            # call per simplex (Python overhead and small products far below BLAS speed).
+            kernels.gram_blocks(cols, ws, wy, ends, counts, small, self.XtWX, self.XtWy)
+            large = np.nonzero(counts > SMALL_BLOCK)[0]
+        else:
+            large = np.nonzero(counts)[0]
+        for j in large:
             s, e = ends[j] - counts[j], ends[j]
-            xj = blocks(s, e)
+            xj = cols[:, s:e]  # (d_hat, n_j), row stride N: a valid BLAS operand
             xw = xj if ws is None else xj * ws[s:e]
             self.XtWX[j] += xw @ xj.T
             self.XtWy[j] += xj @ wy[s:e]

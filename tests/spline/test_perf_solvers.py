@@ -1,0 +1,160 @@
+"""The fast paths of issue 3 against plain references: the nested-dissection sparse Cholesky,
+the constrained solve on problems large enough to be cut into many fronts, and the compiled
+accumulation of many small normal-equation blocks (numba and numpy paths agree)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from simplexspline import SplineSpace, Triangulation
+from simplexspline.spline import kernels, normal, solve
+from simplexspline.spline.solve import SparseCholesky, _nested_dissection
+
+from . import reference as ref
+
+
+def _grid_laplacian(shape, rng):
+    """A random SPD matrix with the pattern of a 27-point stencil, and grid positions."""
+    idx = np.arange(np.prod(shape)).reshape(shape)
+    pts = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), -1).reshape(
+        -1, len(shape)).astype(float)
+    rows, cols = [], []
+    for off in np.ndindex(*(3,) * len(shape)):
+        o = np.array(off) - 1
+        src = idx[tuple(slice(max(0, -k), s - max(0, k)) for k, s in zip(o, shape))]
+        dst = idx[tuple(slice(max(0, k), s - max(0, -k) if k < 0 else s) for k, s in
+                        zip(o, shape))]
+        rows.append(src.ravel())
+        cols.append(dst.ravel())
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    vals = rng.uniform(-1.0, 0.0, len(rows))
+    A = sp.csr_matrix((vals, (rows, cols)), shape=(len(pts),) * 2)
+    A = A + A.T
+    A = A + sp.diags(np.asarray(abs(A).sum(axis=1)).ravel() + 0.1)
+    return A.tocsr(), pts
+
+
+@pytest.mark.parametrize("shape,leaf", [((9, 8, 7), 40), ((30, 25), 32), ((500,), 16)])
+def test_sparse_cholesky_solves_spd_systems(shape, leaf):
+    rng = np.random.default_rng(sum(shape))
+    A, pts = _grid_laplacian(shape, rng)
+    chol = SparseCholesky(A, pts, leaf=leaf)
+    assert len(chol.factors) > 3  # really cut into fronts
+    b = rng.standard_normal(A.shape[0])
+    x = chol.solve(b)
+    np.testing.assert_allclose(x, spla.spsolve(A.tocsc(), b), rtol=1e-10, atol=1e-12)
+
+
+def test_nested_dissection_is_a_valid_ordering():
+    rng = np.random.default_rng(5)
+    A, pts = _grid_laplacian((10, 9, 8), rng)
+    perm, nodes = _nested_dissection(A, pts, 30)
+    assert np.array_equal(np.sort(perm), np.arange(A.shape[0]))
+    # Separator property: unknowns of two sibling subtrees are never coupled.
+    span = {}
+    for t, (s, e, kids) in enumerate(nodes):
+        lo = min([span[k][0] for k in kids] + [s])
+        span[t] = (lo, e)
+        if len(kids) == 2:
+            a, b = (perm[span[k][0]:span[k][1]] for k in kids)
+            assert A[a][:, b].nnz == 0
+
+
+def test_sparse_cholesky_rejects_indefinite():
+    A = sp.csr_matrix(np.diag([1.0, -1.0, 2.0]))
+    with pytest.raises(np.linalg.LinAlgError):
+        SparseCholesky(A, np.arange(3.0)[:, None])
+
+
+def _fit_problem(n, d, r, shape):
+    rng = np.random.default_rng(n * 100 + d * 10 + r)
+    tri = Triangulation.grid(np.zeros(n), np.ones(n), shape)
+    space = SplineSpace(tri, d, r)
+    assert space.system.nglobal > 256  # more unknowns than one leaf front
+    x = rng.random((40 * tri.nsimplex, n))
+    y = np.sin(3 * x[:, 0]) + x[:, -1] ** 2 + 0.01 * rng.standard_normal(len(x))
+    w = rng.uniform(0.5, 2.0, len(x))
+    return tri, space, x, y, w
+
+
+def test_constrained_fit_on_many_fronts_matches_dense_kkt():
+    n, d, r = 2, 4, 2
+    tri, space, x, y, w = _fit_problem(n, d, r, (6, 5))
+    got = space.fit(x, y, w).coefficients.ravel()
+    X = space.design_matrix(x).toarray()
+    H = ref.smoothness_matrix(tri.vertices, tri.simplices, d, r)
+    want = ref.kkt_solution(X, y, H, w)
+    np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-8 * np.abs(want).max())
+
+
+@pytest.mark.parametrize("n,d,r,shape", [(3, 3, 1, (3, 3, 2)), (3, 2, 1, (5, 4, 4)),
+                                         (2, 5, 1, (7, 6))])
+def test_constrained_fit_on_many_fronts_matches_superlu(n, d, r, shape, monkeypatch):
+    _, space, x, y, w = _fit_problem(n, d, r, shape)
+    got = space.fit(x, y, w).coefficients
+    # a second fit on the same space reuses the cached ordering: the same numbers
+    np.testing.assert_array_equal(space.fit(x, y, w).coefficients, got)
+
+    def refuse(*args, **kwargs):
+        raise np.linalg.LinAlgError
+
+    monkeypatch.setattr(solve, "SparseCholesky", refuse)  # the SuperLU path
+    want = space.fit(x, y, w).coefficients
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-10 * np.abs(want).max())
+    assert np.abs(space.H_full @ got.ravel()).max() <= 1e-10 * np.abs(got).max()
+
+
+def test_many_small_blocks_accumulate_like_the_blas_path(monkeypatch):
+    rng = np.random.default_rng(7)
+    tri = Triangulation.grid(np.zeros(3), np.ones(3), (6, 6, 6))  # 1296 simplices
+    x = rng.random((20_000, 3))
+    y = rng.standard_normal(len(x))
+    w = rng.uniform(0.1, 3.0, len(x))
+    space = SplineSpace(tri, 3, 1)
+    fast = space.normal_equations(x, y, w)
+    monkeypatch.setattr(normal, "SMALL_BLOCK", 0)  # every block through BLAS
+    slow = space.normal_equations(x, y, w)
+    np.testing.assert_allclose(fast.XtWX, slow.XtWX, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(fast.XtWy, slow.XtWy, rtol=1e-12, atol=1e-12)
+    assert fast.ytWy == pytest.approx(slow.ytWy, rel=1e-14)
+    np.testing.assert_array_equal(fast.counts, slow.counts)
+
+
+def test_extend_add_numpy_and_compiled_agree(monkeypatch):
+    rng = np.random.default_rng(3)
+    idx = np.sort(rng.choice(40, 15, replace=False))
+    upd = rng.standard_normal((15, 15))
+    fronts = []
+    for numba_on in (kernels.HAVE_NUMBA, False):
+        monkeypatch.setattr(kernels, "HAVE_NUMBA", numba_on)
+        front = np.asfortranarray(rng.standard_normal((40, 40)) * 0 + 1.0)
+        kernels.extend_add(front, idx, upd)
+        fronts.append(np.tril(front))
+    np.testing.assert_allclose(fronts[0], fronts[1], rtol=1e-15)
+    assert fronts[0][idx[3], idx[1]] == pytest.approx(1.0 + upd[3, 1])
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_fused_accumulation_matches_two_step_path(monkeypatch, weighted):
+    if not kernels.HAVE_NUMBA:
+        pytest.skip("the fused kernel needs numba")
+    rng = np.random.default_rng(11)
+    tri = Triangulation.grid(np.zeros(3), np.ones(3), (3, 2, 2))
+    x = rng.random((30_000, 3))
+    y = np.cos(4 * x[:, 0]) + x[:, 1] * x[:, 2]
+    w = rng.uniform(0.1, 3.0, len(x)) if weighted else None
+    space = SplineSpace(tri, 3, 1)
+    monkeypatch.setattr(normal, "FUSED_MIN_POINTS", 1)
+    monkeypatch.setattr(normal, "CHUNK", 7_000)  # several chunks, tiles of every size
+    fused = space.normal_equations(x, y, w)
+    monkeypatch.setattr(normal, "FUSED_MIN_POINTS", 10**12)
+    plain = space.normal_equations(x, y, w)
+    np.testing.assert_allclose(fused.XtWX, plain.XtWX, rtol=1e-12, atol=1e-10)
+    np.testing.assert_allclose(fused.XtWy, plain.XtWy, rtol=1e-12, atol=1e-10)
+    assert fused.ytWy == pytest.approx(plain.ytWy, rel=1e-13)
+    np.testing.assert_array_equal(fused.counts, plain.counts)
+    np.testing.assert_allclose(fused.wsum, plain.wsum, rtol=1e-13)
+    np.testing.assert_array_equal(fused.XtWX, np.swapaxes(fused.XtWX, 1, 2))  # symmetric
