@@ -158,3 +158,20 @@ def test_fused_accumulation_matches_two_step_path(monkeypatch, weighted):
     np.testing.assert_array_equal(fused.counts, plain.counts)
     np.testing.assert_allclose(fused.wsum, plain.wsum, rtol=1e-13)
     np.testing.assert_array_equal(fused.XtWX, np.swapaxes(fused.XtWX, 1, 2))  # symmetric
+
+
+@pytest.mark.parametrize("leaf", [4, 16, 64])
+def test_sparse_cholesky_with_decoupled_blocks(leaf):
+    """Fronts with no coupling to later unknowns (empty update) must not break the tree
+    (a KeyError seen in structure selection)."""
+
+
+    rng = np.random.default_rng(0)
+    blocks = []
+    for _ in range(6):
+        a = rng.normal(size=(30, 30))
+        blocks.append(a @ a.T + 30 * np.eye(30))
+    P = sp.block_diag(blocks).tocsr()
+    f = SparseCholesky(P, rng.uniform(size=(180, 2)), leaf=leaf)
+    b = rng.normal(size=180)
+    assert np.abs(P @ f.solve(b) - b).max() < 1e-10

@@ -504,6 +504,8 @@ class _CholeskySymbolic:
             src = pos.data[lo:hi].astype(np.int64) - 1
             keep = cols >= s  # columns of earlier (descendant) unknowns arrive as updates
             cols, rows, src = cols[keep], rows[keep], src[keep]
+            # children decoupled from everything later (empty update) contribute nothing
+            kids = [c for c in kids if c in updates]
             child_u = [updates.pop(c) for c in kids]
             U = np.unique(np.concatenate([cols[cols >= e]] + [u[u >= e] for u in child_u]))
             F = np.concatenate([np.arange(s, e), U])
