@@ -26,7 +26,7 @@ import numpy as np
 
 from simplexspline.spline.bform import _monomial_plan, _scale
 
-__all__ = ["HAVE_NUMBA", "one_blas_thread", "basis_plan", "grid_locate", "basis_cols", "sorted_design", "sorted_design_t", "evaluate",
+__all__ = ["HAVE_NUMBA", "one_blas_thread", "basis_plan", "grid_locate", "basis_cols", "sorted_design_t", "evaluate",
            "extend_add", "gram_blocks", "fused_normal"]
 
 try:  # pragma: no cover - exercised where numba is installed
@@ -220,34 +220,6 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
                     a0 += mono[k, i] * cs[j, k]
                 out[i0 + i] = (a0 + a1) + (a2 + a3)
         return out
-
-    @numba.njit(cache=True, nogil=True)
-    def _sorted_design(x, sid, pos, origin, tinv, parents, firsts, offsets, scale, out, perm):
-        """Basis rows of every point written at its simplex-sorted position.
-
-        pos[j] is the next free row of simplex j (advanced in place); perm receives the
-        sorted position of each point. Barycentric coordinates and monomials are computed
-        for blocks of points (vectorisable inner loops), then scattered row by row.
-        """
-        npts, n = x.shape
-        m = scale.shape[0]
-        bt = np.empty((n + 1, BLOCK))
-        s1 = np.empty((max(m, n + 1), BLOCK))
-        s2 = np.empty((max(m, n + 1), BLOCK))
-        for i0 in range(0, npts, BLOCK):
-            i1 = min(i0 + BLOCK, npts)
-            _block_barycentric(x, sid, i0, i1, origin, tinv, bt)
-            mono = _block_monomials(bt, 0, i1 - i0, parents, firsts, offsets, s1, s2)
-            for i in range(i1 - i0):
-                j = sid[i0 + i]
-                row = pos[j]
-                pos[j] = row + 1
-                perm[i0 + i] = row
-                for k in range(m):
-                    out[row, k] = mono[k, i] * scale[k]
-        return out
-
-
 
     @numba.njit(cache=True, nogil=True)
     def _sorted_design_t(x, sid, pos, origin, tinv, parents, firsts, offsets, scale, out,
@@ -468,23 +440,6 @@ def basis_cols(bt: np.ndarray, d: int) -> np.ndarray:
         out[:] = 1.0
         return out
     return _basis_cols(np.ascontiguousarray(bt), parents, firsts, offsets, scale, out)
-
-
-def sorted_design(x, sid, counts, origin, tinv, d: int):
-    """Basis rows (N, d_hat) of points located in simplices ``sid`` (all >= 0), in
-    simplex-sorted order (rows of simplex j contiguous, in input order), and the sorted
-    position of every input point."""
-    parents, firsts, offsets, scale = basis_plan(x.shape[1], d)
-    out = np.empty((len(x), len(scale)))
-    perm = np.empty(len(x), dtype=np.int64)
-    pos = (np.cumsum(counts) - counts).astype(np.int64)
-    if d == 0:
-        perm[:] = np.argsort(sid, kind="stable").argsort()
-        out[:] = 1.0
-        return out, perm
-    _sorted_design(np.ascontiguousarray(x), sid, pos, origin, tinv, parents, firsts, offsets,
-                   scale, out, perm)
-    return out, perm
 
 
 def sorted_design_t(x, sid, counts, origin, tinv, d: int):
