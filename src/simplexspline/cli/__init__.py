@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from simplexspline.errors import SimplexSplineError
 
 #: Sub-command modules, in the order ``--help`` lists them.
-_COMMANDS = ("identify", "simulate", "reconstruct", "demo")
+_COMMANDS = ("identify", "simulate", "reconstruct", "export", "derivatives", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:
