@@ -32,8 +32,9 @@ def _partition_blocks(tri_arrays: dict, degree: int, x, y, w) -> dict:
     ne = NormalEquations(tri, degree)
     x = np.asarray(x, dtype=float)
     if len(x):
+        # one thread per task: the cluster's workers already share the cores
         ne.add(x, np.asarray(y, dtype=float).ravel(),
-               None if w is None else np.asarray(w, dtype=float).ravel())
+               None if w is None else np.asarray(w, dtype=float).ravel(), threads=1)
     return {k: getattr(ne, k) for k in _FIELDS}
 
 

@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from simplexspline import SplineSpace, Triangulation
+from simplexspline import InputError, NormalEquations, OutsideDomainError, SplineSpace, Triangulation
 from simplexspline.spline import kernels, normal, solve
 from simplexspline.spline.solve import SparseCholesky, _nested_dissection
 
@@ -80,7 +80,13 @@ def _fit_problem(n, d, r, shape):
     return tri, space, x, y, w
 
 
-def test_constrained_fit_on_many_fronts_matches_dense_kkt():
+@pytest.fixture
+def sparse_path(monkeypatch):
+    """Force the sparse factorisation (these problems are small enough for the dense one)."""
+    monkeypatch.setattr(solve, "DENSE_MAX", 0)
+
+
+def test_constrained_fit_on_many_fronts_matches_dense_kkt(sparse_path):
     n, d, r = 2, 4, 2
     tri, space, x, y, w = _fit_problem(n, d, r, (6, 5))
     got = space.fit(x, y, w).coefficients.ravel()
@@ -92,7 +98,8 @@ def test_constrained_fit_on_many_fronts_matches_dense_kkt():
 
 @pytest.mark.parametrize("n,d,r,shape", [(3, 3, 1, (3, 3, 2)), (3, 2, 1, (5, 4, 4)),
                                          (2, 5, 1, (7, 6))])
-def test_constrained_fit_on_many_fronts_matches_superlu(n, d, r, shape, monkeypatch):
+def test_constrained_fit_on_many_fronts_matches_superlu(n, d, r, shape, monkeypatch,
+                                                        sparse_path):
     _, space, x, y, w = _fit_problem(n, d, r, shape)
     got = space.fit(x, y, w).coefficients
     # a second fit on the same space reuses the cached ordering: the same numbers
@@ -175,3 +182,43 @@ def test_sparse_cholesky_with_decoupled_blocks(leaf):
     f = SparseCholesky(P, rng.uniform(size=(180, 2)), leaf=leaf)
     b = rng.normal(size=180)
     assert np.abs(P @ f.solve(b) - b).max() < 1e-10
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+@pytest.mark.parametrize("weighted", [False, True])
+def test_threaded_accumulation_matches_one_thread(threads, weighted):
+    rng = np.random.default_rng(5)
+    tri = Triangulation.grid(np.zeros(3), np.ones(3), (3, 2, 2))
+    x = rng.random((9_001, 3))
+    y = np.sin(3 * x[:, 0]) + x[:, 2]
+    w = rng.uniform(0.1, 2.0, len(x)) if weighted else None
+    one = NormalEquations(tri, 3).add(x, y, w, threads=1)
+    many = NormalEquations(tri, 3).add(x, y, w, threads=threads)
+    np.testing.assert_allclose(many.XtWX, one.XtWX, rtol=1e-12, atol=1e-10)
+    np.testing.assert_allclose(many.XtWy, one.XtWy, rtol=1e-12, atol=1e-10)
+    assert many.ytWy == pytest.approx(one.ytWy, rel=1e-13)
+    np.testing.assert_array_equal(many.counts, one.counts)
+
+
+def test_threaded_accumulation_reports_outside_points_and_adds_nothing():
+    tri = Triangulation.grid(np.zeros(2), np.ones(2), (2, 2))
+    rng = np.random.default_rng(2)
+    x = rng.random((6_000, 2))
+    x[[10, 4_500]] += 2.0  # one outside point in each thread's part
+    ne = NormalEquations(tri, 2)
+    with pytest.raises(OutsideDomainError, match=r"2 of 6000 data points lie outside.*"
+                                                 r"\[10, 4500\]"):
+        ne.add(x, np.ones(len(x)), threads=2)
+    assert ne.npoints == 0 and not ne.XtWX.any()
+    with pytest.raises(InputError, match="threads must be >= 1"):
+        ne.add(x[:5], np.ones(5), threads=0)
+
+
+def test_dense_and_sparse_constrained_solves_agree(monkeypatch):
+    _, space, x, y, w = _fit_problem(3, 3, 1, (2, 2, 2))
+    assert space.system.nglobal <= solve.DENSE_MAX
+    dense = space.fit(x, y, w).coefficients
+    monkeypatch.setattr(solve, "DENSE_MAX", 0)
+    sparse = space.fit(x, y, w).coefficients
+    np.testing.assert_allclose(dense, sparse, rtol=1e-9, atol=1e-10 * np.abs(sparse).max())
+    assert np.abs(space.H_full @ dense.ravel()).max() <= 1e-10 * np.abs(dense).max()

@@ -9,6 +9,8 @@ N x (J*d_hat) matrix is never formed, and memory is bounded independently of N.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from simplexspline.errors import InputError, OutsideDomainError
@@ -31,6 +33,32 @@ FUSED_MIN_POINTS = 100_000
 #: SMALL_MANY of them (below that the per-block products cost little).
 SMALL_BLOCK = 64
 SMALL_MANY = 256
+
+#: Calls of ``add`` with at least this many points are split across threads (see
+#: :func:`_thread_count`); below, thread start-up and the extra block sums cost more
+#: than they save.
+PARALLEL_MIN_POINTS = 100_000
+
+
+def _thread_count(npoints: int, threads: int | None) -> int:
+    """Threads for accumulating ``npoints`` points (>= 1)."""
+    if threads is not None:
+        if int(threads) < 1:
+            raise InputError(f"threads must be >= 1, got {threads!r}")
+        return max(1, min(int(threads), npoints // 1000 or 1))
+    if npoints < PARALLEL_MIN_POINTS:
+        return 1
+    env = os.environ.get("SIMPLEXSPLINE_THREADS")
+    if env:
+        try:
+            return max(1, int(env))
+        except ValueError:
+            raise InputError(f"SIMPLEXSPLINE_THREADS must be an integer, got {env!r}") from None
+    try:
+        ncpu = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        ncpu = os.cpu_count() or 1
+    return max(1, min(ncpu, 8))
 
 
 class NormalEquations:
@@ -75,7 +103,7 @@ class NormalEquations:
         """Total number of accumulated points."""
         return int(self.counts.sum())
 
-    def add(self, x, y, weights=None) -> NormalEquations:
+    def add(self, x, y, weights=None, *, threads: int | None = None) -> NormalEquations:
         """Accumulate a chunk of data in place.
 
         Parameters
@@ -86,30 +114,68 @@ class NormalEquations:
             Observations.
         weights : array_like, shape (N,), optional
             Non-negative weights (inverse noise variances; diagonal Sigma^-1 of Eq. 38).
+        threads : int, optional
+            Worker threads for large calls (each locates and accumulates a contiguous part
+            of the points into private blocks, which are then summed). Default: the CPUs
+            this process may use (``SIMPLEXSPLINE_THREADS`` overrides), for calls of at
+            least :data:`PARALLEL_MIN_POINTS` points; 1 runs in the calling thread.
 
         Returns
         -------
         self
+
+        Raises
+        ------
+        OutsideDomainError
+            When points lie outside the triangulation (nothing is accumulated then).
         """
         tri = self.triangulation
         pts = as_points(x, name="x", ndim=tri.ndim)
         vals = as_values(y, len(pts))
         w = as_weights(weights, len(pts))
-        sid = tri.locate(pts)
-        out = np.nonzero(sid < 0)[0]
+        nthreads = _thread_count(len(pts), threads)
+        bounds = np.linspace(0, len(pts), nthreads + 1).astype(np.int64)
+        fused = len(pts) >= FUSED_MIN_POINTS
+        with kernels.one_blas_thread():
+            if nthreads == 1:
+                parts = [self._accumulate(pts, vals, w, fused, None)]
+            else:
+                from concurrent.futures import ThreadPoolExecutor
+
+                def work(i):
+                    s, e = bounds[i], bounds[i + 1]
+                    return self._accumulate(pts[s:e], vals[s:e], None if w is None else w[s:e],
+                                            fused, NormalEquations(tri, self.degree))
+
+                with ThreadPoolExecutor(nthreads) as pool:
+                    parts = list(pool.map(work, range(nthreads)))
+        out = np.concatenate([o + b for (o, _), b in zip(parts, bounds) if len(o)]
+                             ) if any(len(o) for o, _ in parts) else np.zeros(0, np.int64)
         if len(out):
             raise OutsideDomainError(
                 f"{len(out)} of {len(pts)} data points lie outside the triangulation "
                 f"(first rows: {out[:5].tolist()}); drop them or enlarge the triangulation",
                 out,
             )
-        fused = len(pts) >= FUSED_MIN_POINTS
-        with kernels.one_blas_thread():
-            for s in range(0, len(pts), CHUNK):
-                e = s + CHUNK
-                self._add_located(pts[s:e], vals[s:e], None if w is None else w[s:e],
-                                  sid[s:e], fused)
+        for _, part in parts:
+            if part is not None:
+                self.merge(part)
         return self
+
+    def _accumulate(self, pts, vals, w, fused: bool, into):
+        """Locate and accumulate points into ``into`` (None: this accumulator); returns
+        (indices of points outside the triangulation, accumulator). Nothing is accumulated
+        when any point lies outside."""
+        sid = self.triangulation.locate(pts)
+        out = np.nonzero(sid < 0)[0]
+        if len(out):
+            return out, None
+        target = self if into is None else into
+        for s in range(0, len(pts), CHUNK):
+            e = s + CHUNK
+            target._add_located(pts[s:e], vals[s:e], None if w is None else w[s:e],
+                                sid[s:e], fused)
+        return out, into
 
     def _add_located(self, pts, vals, w, sid, fused: bool = False) -> None:
         """Accumulate points whose simplices are known (kernel, no validation)."""

@@ -241,12 +241,8 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
         coef = _solve_blocks(Q + lam * np.eye(dhat), q)
         return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
     # G'QG and G'q, assembled sparse from the blocks.
-    loc = np.arange(nsimp * dhat).reshape(nsimp, dhat)
-    gi = gather[loc]
-    rows = np.broadcast_to(gi[:, :, None], Q.shape).ravel()
-    cols = np.broadcast_to(gi[:, None, :], Q.shape).ravel()
-    Qg = sp.csr_matrix((Q.ravel(), (rows, cols)), shape=(M, M))
-    qg = np.bincount(gi.ravel(), weights=q.ravel(), minlength=M)
+    Qg = _assemble_gram(Q, gather, M, getattr(system, "solver_cache", None))
+    qg = np.bincount(gather, weights=q.ravel(), minlength=M)
     if lam > 0:
         mult = np.bincount(gather, minlength=M).astype(float)
         Qg = Qg + sp.diags(lam * mult)
@@ -267,6 +263,30 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
                   cache.setdefault("cholesky", {}) if cache is not None else None)
     coef = g[gather].reshape(nsimp, dhat)
     return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
+
+
+def _assemble_gram(Q: np.ndarray, gather: np.ndarray, M: int,
+                   cache: dict | None) -> sp.csr_matrix:
+    """``G'QG`` (M x M, CSR) from the per-simplex blocks. The sparsity pattern and the slot
+    of every block entry in it depend on the space only and are cached there, so each fit
+    costs one weighted bincount."""
+    nsimp, dhat, _ = Q.shape
+    key = ("gram_pattern", nsimp, dhat, M)
+    plan = cache.get(key) if cache is not None else None
+    if plan is None:
+        gi = gather.reshape(nsimp, dhat)
+        rows = np.broadcast_to(gi[:, :, None], Q.shape).ravel()
+        cols = np.broadcast_to(gi[:, None, :], Q.shape).ravel()
+        lin = rows * M + cols
+        uniq, slot = np.unique(lin, return_inverse=True)
+        indptr = np.zeros(M + 1, dtype=np.int64)
+        np.cumsum(np.bincount(uniq // M, minlength=M), out=indptr[1:])
+        plan = (slot.ravel(), (uniq % M).astype(np.int64), indptr, len(uniq))
+        if cache is not None:
+            cache[key] = plan
+    slot, indices, indptr, nnz = plan
+    data = np.bincount(slot, weights=Q.ravel(), minlength=nnz)
+    return sp.csr_matrix((data, indices.copy(), indptr.copy()), shape=(M, M))
 
 
 def _solve_blocks(Q: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -336,19 +356,56 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
     if m:
         rn = np.sqrt(np.asarray(A.multiply(A).sum(axis=1)).ravel())
         A = (sp.diags(scale / np.where(rn > 0, rn, 1.0)) @ A).tocsr()
-        K = sp.bmat([[Qg, A.T], [A, None]], format="csc")
-    else:
-        K = Qg.tocsc()
+    At = A.T.tocsr()
+
+    def kkt(z):  # the exact KKT matrix [Qg A'; A 0] times z
+        z1, z2 = z[:M], z[M:]
+        return np.concatenate([Qg @ z1 + At @ z2, A @ z1])
+
+    K = spla.LinearOperator((M + m, M + m), matvec=kkt, dtype=float)
     rhs = np.concatenate([qg, np.zeros(m)])
     delta = KKT_DELTA * scale
     for sigma in (KKT_SIGMA * scale, 0.0):
-        pre = _preconditioner(Qg, A, sigma, delta, coords, cache)
+        pre = None
+        if sigma > 0 and M <= DENSE_MAX:
+            pre = _dense_preconditioner(Qg, A, At, sigma, delta)
+        if pre is None:
+            pre = _preconditioner(Qg, A, sigma, delta, coords, cache)
         if pre is None:
             continue
         z = _refine(pre, K, rhs, M)
         if z is not None:
             return z[:M]
     raise singular
+
+
+#: Systems with at most this many C^0-reduced coefficients are factorised as one dense
+#: matrix (LAPACK Cholesky): below about this size the sparse factorisation's bookkeeping
+#: costs more than the dense flops (the paper's 37-simplex S^1_3 model has M = 657).
+DENSE_MAX = 1500
+
+
+def _dense_preconditioner(Qg, A, At, sigma: float, delta: float):
+    """Like :func:`_preconditioner` with sigma > 0, with the condensed matrix dense."""
+    M, m = Qg.shape[0], A.shape[0]
+    rho = 1.0 / delta
+    P = Qg.toarray()
+    if m:
+        P += rho * (At @ A).toarray()
+    P[np.diag_indices(M)] += sigma
+    with kernels.one_blas_thread():
+        try:
+            fac = sla.cho_factor(P, lower=True, overwrite_a=True, check_finite=False)
+        except sla.LinAlgError:
+            return None
+
+    def solve(r):
+        r1, r2 = r[:M], r[M:]
+        with kernels.one_blas_thread():
+            dg = sla.cho_solve(fac, r1 + rho * (At @ r2) if m else r1, check_finite=False)
+        return np.concatenate([dg, rho * (A @ dg - r2)]) if m else dg
+
+    return solve
 
 
 def _preconditioner(Qg, A, sigma: float, delta: float, coords=None, cache=None):
