@@ -222,3 +222,23 @@ def test_dense_and_sparse_constrained_solves_agree(monkeypatch):
     sparse = space.fit(x, y, w).coefficients
     np.testing.assert_allclose(dense, sparse, rtol=1e-9, atol=1e-10 * np.abs(sparse).max())
     assert np.abs(space.H_full @ dense.ravel()).max() <= 1e-10 * np.abs(dense).max()
+
+
+def test_threaded_location_and_evaluation_match_serial(monkeypatch):
+    if not kernels.HAVE_NUMBA:
+        pytest.skip("the threaded passes wrap the compiled kernels")
+    rng = np.random.default_rng(9)
+    tri = Triangulation.grid(np.zeros(3), np.ones(3), (3, 2, 2))
+    x = rng.uniform(-0.05, 1.05, (5_001, 3))  # some outside: NaN in every thread's part
+    spline = SplineSpace(tri, 3, 1).fit(x[tri.locate(x) >= 0], np.ones((tri.locate(x) >= 0).sum()))
+    monkeypatch.setenv("SIMPLEXSPLINE_THREADS", "1")
+    sid1, val1 = tri.locate(x), spline.predict(x)
+    monkeypatch.setattr(kernels, "PARALLEL_MIN_POINTS", 100)
+    monkeypatch.setenv("SIMPLEXSPLINE_THREADS", "3")
+    assert kernels.thread_count(len(x)) == 3
+    np.testing.assert_array_equal(tri.locate(x), sid1)
+    np.testing.assert_array_equal(spline.predict(x), val1)
+    assert np.isnan(val1).any() and (sid1 < 0).any()
+    monkeypatch.setenv("SIMPLEXSPLINE_THREADS", "two")
+    with pytest.raises(InputError, match="SIMPLEXSPLINE_THREADS must be an integer"):
+        tri.locate(x)

@@ -26,7 +26,7 @@ import numpy as np
 
 from simplexspline.spline.bform import _monomial_plan, _scale
 
-__all__ = ["HAVE_NUMBA", "one_blas_thread", "basis_plan", "grid_locate", "basis_cols", "sorted_design_t", "evaluate",
+__all__ = ["HAVE_NUMBA", "one_blas_thread", "thread_count", "in_parallel", "basis_plan", "grid_locate", "basis_cols", "sorted_design_t", "evaluate",
            "extend_add", "gram_blocks", "fused_normal"]
 
 try:  # pragma: no cover - exercised where numba is installed
@@ -41,6 +41,53 @@ except ImportError:  # pragma: no cover
 
 
 _CONTROLLER: list = []
+
+#: Evaluation and location calls with at least this many points run on several threads
+#: (the compiled kernels release the GIL); below, thread start-up costs more than it saves.
+PARALLEL_MIN_POINTS = 200_000
+
+
+def thread_count(npoints: int, threads: int | None = None,
+                 min_points: int | None = None) -> int:
+    """Worker threads for a compiled pass over ``npoints`` points.
+
+    ``threads`` given: that many (at most one per 1,000 points). Otherwise 1 below
+    ``min_points`` points, else ``SIMPLEXSPLINE_THREADS`` or the CPUs this process may use
+    (at most 8).
+    """
+    from simplexspline.errors import InputError
+
+    if threads is not None:
+        if int(threads) < 1:
+            raise InputError(f"threads must be >= 1, got {threads!r}")
+        return max(1, min(int(threads), npoints // 1000 or 1))
+    if npoints < (PARALLEL_MIN_POINTS if min_points is None else min_points):
+        return 1
+    env = os.environ.get("SIMPLEXSPLINE_THREADS")
+    if env:
+        try:
+            return max(1, int(env))
+        except ValueError:
+            raise InputError(f"SIMPLEXSPLINE_THREADS must be an integer, got {env!r}") from None
+    try:
+        ncpu = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        ncpu = os.cpu_count() or 1
+    return max(1, min(ncpu, 8))
+
+
+def in_parallel(npoints: int, work) -> None:
+    """Call ``work(start, stop)`` on contiguous slices of ``range(npoints)``, on
+    :func:`thread_count` threads (``work`` writes its own slice of a preallocated output)."""
+    nthreads = thread_count(npoints)
+    if nthreads == 1:
+        work(0, npoints)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    bounds = np.linspace(0, npoints, nthreads + 1).astype(np.int64)
+    with ThreadPoolExecutor(nthreads) as pool:
+        list(pool.map(lambda i: work(bounds[i], bounds[i + 1]), range(nthreads)))
 
 
 def one_blas_thread():
@@ -429,7 +476,9 @@ def extend_add(front: np.ndarray, idx: np.ndarray, upd: np.ndarray) -> None:
 def grid_locate(x, lower, step, shape, table, nfact, tol) -> np.ndarray:
     """Compiled Kuhn-grid location (see :class:`~simplexspline.spline.locate.GridLocator`)."""
     out = np.empty(len(x), dtype=np.int64)
-    return _grid_locate(x, lower, step, shape, table, nfact, tol, out)
+    in_parallel(len(x), lambda s, e: _grid_locate(x[s:e], lower, step, shape, table, nfact,
+                                                 tol, out[s:e]))
+    return out
 
 
 def basis_cols(bt: np.ndarray, d: int) -> np.ndarray:
@@ -466,5 +515,8 @@ def evaluate(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
     if d == 0:
         out[:] = np.where(sid >= 0, coef[np.maximum(sid, 0), 0], np.nan)
         return out
-    return _evaluate(np.ascontiguousarray(x), sid, origin, tinv, coef * scale, parents,
-                     firsts, offsets, out)
+    x = np.ascontiguousarray(x)
+    cs = coef * scale
+    in_parallel(len(x), lambda s, e: _evaluate(x[s:e], sid[s:e], origin, tinv, cs, parents,
+                                               firsts, offsets, out[s:e]))
+    return out

@@ -9,8 +9,6 @@ N x (J*d_hat) matrix is never formed, and memory is bounded independently of N.
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from simplexspline.errors import InputError, OutsideDomainError
@@ -42,23 +40,7 @@ PARALLEL_MIN_POINTS = 100_000
 
 def _thread_count(npoints: int, threads: int | None) -> int:
     """Threads for accumulating ``npoints`` points (>= 1)."""
-    if threads is not None:
-        if int(threads) < 1:
-            raise InputError(f"threads must be >= 1, got {threads!r}")
-        return max(1, min(int(threads), npoints // 1000 or 1))
-    if npoints < PARALLEL_MIN_POINTS:
-        return 1
-    env = os.environ.get("SIMPLEXSPLINE_THREADS")
-    if env:
-        try:
-            return max(1, int(env))
-        except ValueError:
-            raise InputError(f"SIMPLEXSPLINE_THREADS must be an integer, got {env!r}") from None
-    try:
-        ncpu = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not on Linux
-        ncpu = os.cpu_count() or 1
-    return max(1, min(ncpu, 8))
+    return kernels.thread_count(npoints, threads, PARALLEL_MIN_POINTS)
 
 
 class NormalEquations:
