@@ -13,6 +13,14 @@ from __future__ import annotations
 
 from simplexspline.aero.coefficients import aerodynamic_coefficients, angular_accelerations
 from simplexspline.aero.config import load_config, parse_structure
+from simplexspline.aero.derivatives import (
+    condition_grid,
+    derivatives,
+    load_models,
+    plot_derivative_map,
+    plot_derivatives,
+    reference_conditions,
+)
 from simplexspline.aero.differentiation import midpoint_derivative
 from simplexspline.aero.flightdata import (
     FLIGHT_DATA_COLUMNS,
@@ -57,6 +65,12 @@ __all__ = [
     "Structure",
     "ThinDataWarning",
     "aerodynamic_coefficients",
+    "condition_grid",
+    "derivatives",
+    "load_models",
+    "plot_derivative_map",
+    "plot_derivatives",
+    "reference_conditions",
     "angular_accelerations",
     "identify",
     "innovation_statistics",

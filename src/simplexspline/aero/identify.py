@@ -432,6 +432,10 @@ def identify(df, metadata: Mapping | None = None, *,
     for res in results.values():
         res.model.provenance.update({"software": prov["software"],
                                      "settings": settings.to_dict(),
+                                     "medians": {v: float(np.median(ident[v].to_numpy(
+                                         dtype=float))) for v in res.model.variables},
+                                     "geometry": {k: float(meta[k]) for k in
+                                                  ("S", "b", "cbar") if k in meta},
                                      "validation": {k: res.validation.get(k) for k in
                                                     ("rms", "rrms", "r2", "rms_true",
                                                      "rrms_true")}})

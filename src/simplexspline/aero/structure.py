@@ -41,7 +41,7 @@ CANDIDATE_VARIABLES = ("alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "d
 UNITS = {
     "alpha": "rad", "beta": "rad", "mach": "-", "tas": "m/s", "h": "m", "rho": "kg/m^3",
     "p": "rad/s", "q": "rad/s", "r": "rad/s", "phat": "- (p b / 2V)",
-    "qhat": "- (q cbar / V)", "rhat": "- (r b / 2V)", "de": "rad", "da": "rad", "dr": "rad",
+    "qhat": "- (q cbar / 2V)", "rhat": "- (r b / 2V)", "de": "rad", "da": "rad", "dr": "rad",
     "dte": "rad", "flap": "rad", "speedbrake": "rad", "gear": "-",
     "phi": "rad", "theta": "rad", "pdot": "rad/s^2", "qdot": "rad/s^2", "rdot": "rad/s^2",
     **{c: "-" for c in COEFFICIENTS},
