@@ -185,7 +185,8 @@ def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
     return Z
 
 
-def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None):
+def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
+                      penalty=None):
     """Solve the constrained least-squares problem from accumulated normal equations.
 
     Parameters
@@ -202,6 +203,10 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
     ridge : float, optional
         Relative ridge weight; with ``on_insufficient='ridge'`` defaults to 1e-6. Given
         with another policy, the ridge is applied regardless (regularised fit).
+    penalty : ndarray, shape (J, d_hat, d_hat), optional
+        Absolute per-simplex penalty blocks ``lam * P_t`` (symmetric positive
+        semi-definite): ``c' blockdiag(penalty) c`` is added to the objective (see
+        :mod:`simplexspline.spline.penalty`). Directions it determines are not undetermined.
 
     Returns
     -------
@@ -218,7 +223,15 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
         raise InsufficientDataError(
             "no data (or only zero weights) to fit: add data points", np.arange(nsimp),
             ne.counts)
+    if penalty is not None:
+        penalty = np.asarray(penalty, dtype=float)
+        if penalty.shape != Q.shape or not np.all(np.isfinite(penalty)):
+            raise InputError(f"penalty must be finite blocks of shape {Q.shape}, got "
+                             f"{penalty.shape}")
+    Qp = Q if penalty is None else Q + penalty
     N, deficient = _null_directions(Q, ne.counts)
+    if penalty is not None:
+        N, _ = _null_directions(Qp, ne.counts)
     Zu = _undetermined(N, system.H_full)
     under = np.unique(Zu.indices // dhat)
     if ridge is None and on_insufficient == "ridge":
@@ -238,10 +251,10 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None)
     gather, M = system.gather, system.nglobal
     if M == nsimp * dhat and system.A_all.shape[0] == 0 and (Zu.shape[1] == 0 or lam):
         # No continuity (r = -1): independent dense blocks, solved directly.
-        coef = _solve_blocks(Q + lam * np.eye(dhat), q)
+        coef = _solve_blocks(Qp + lam * np.eye(dhat), q)
         return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
     # G'QG and G'q, assembled sparse from the blocks.
-    Qg = _assemble_gram(Q, gather, M, getattr(system, "solver_cache", None))
+    Qg = _assemble_gram(Qp, gather, M, getattr(system, "solver_cache", None))
     qg = np.bincount(gather, weights=q.ravel(), minlength=M)
     if lam > 0:
         mult = np.bincount(gather, minlength=M).astype(float)

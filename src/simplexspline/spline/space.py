@@ -126,7 +126,7 @@ class SplineSpace:
         return ne
 
     def solve(self, normal_equations: NormalEquations, *, on_insufficient: str = "raise",
-              ridge: float | None = None):
+              ridge: float | None = None, smoothing=None, penalty="energy"):
         """Solve for the B-coefficients from accumulated normal equations.
 
         See :meth:`fit` for the parameters.
@@ -141,13 +141,20 @@ class SplineSpace:
             raise InputError("solve() takes a NormalEquations accumulator "
                              "(from SplineSpace.normal_equations)")
         normal_equations.check_space(self.triangulation, self.degree)
-        coef, info = solve_constrained(normal_equations, self.system,
-                                       on_insufficient=on_insufficient, ridge=ridge)
+        if smoothing is None:
+            coef, info = solve_constrained(normal_equations, self.system,
+                                           on_insufficient=on_insufficient, ridge=ridge)
+        else:
+            from simplexspline.spline.penalty import solve_penalized
+
+            coef, info = solve_penalized(normal_equations, self.system, penalty=penalty,
+                                         smoothing=smoothing,
+                                         on_insufficient=on_insufficient, ridge=ridge)
         return SimplexSpline(self.triangulation, self.degree, self.continuity, coef,
                              space=self, info=info)
 
     def fit(self, x, y, weights=None, *, on_insufficient: str = "raise",
-            ridge: float | None = None):
+            ridge: float | None = None, smoothing=None, penalty="energy"):
         """Fit the spline to scattered data by equality-constrained least squares.
 
         Parameters
@@ -166,10 +173,21 @@ class SplineSpace:
             small ridge.
         ridge : float, optional
             Relative ridge weight (default 1e-6 with ``'ridge'``).
+        smoothing : 'gcv' or float, optional
+            Regularise: minimise ``(y-Xc)'W(y-Xc) + lam c'Pc`` under the continuity
+            conditions. ``'gcv'`` chooses ``lam`` by generalized cross-validation; a float
+            is the relative weight (``lam = smoothing * tr(X'WX) / tr(P)``). ``None`` (the
+            default): no penalty. The chosen weight and the effective degrees of freedom
+            are in ``spline.info.regularization``. See :mod:`simplexspline.spline.penalty`.
+        penalty : {'energy', 'membrane', 'ridge'} or ndarray, default 'energy'
+            The penalty P used with ``smoothing``: integrated squared second derivatives
+            (thin plate, in the triangulation's coordinates), squared first derivatives,
+            or ``c'c``; or custom blocks of shape (J, d_hat, d_hat).
 
         Returns
         -------
         SimplexSpline
         """
         return self.solve(self.normal_equations(x, y, weights),
-                          on_insufficient=on_insufficient, ridge=ridge)
+                          on_insufficient=on_insufficient, ridge=ridge,
+                          smoothing=smoothing, penalty=penalty)
