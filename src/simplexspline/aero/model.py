@@ -162,3 +162,26 @@ class AeroModel:
                                  "variables")
         spline.metadata = meta
         return cls(structure, scaling, spline, dict(aero.get("provenance") or {}))
+
+    # ------------------------------------------------------------------ statistics
+    def standard_error(self, data, *, outside: str = "clamp") -> np.ndarray:
+        """Standard error of the predicted coefficient, shape (N,) (see
+        :meth:`SimplexSpline.standard_error`); the spline needs statistics
+        (``spline.with_statistics(ne)``). ``outside`` as in :meth:`predict`."""
+        if outside not in OUTSIDE:
+            raise InputError(f"outside must be one of {OUTSIDE}, got {outside!r}")
+        u = self.scaling.transform(self.inputs(data), clip=outside == "clamp")
+        return self.spline.standard_error(u, outside="nan" if outside == "nan"
+                                          else "extrapolate")
+
+    def confidence_interval(self, data, level: float = 0.95, *, kind: str = "confidence",
+                            weights=None, outside: str = "clamp"):
+        """Pointwise ``(lower, upper)`` bounds of the coefficient (``kind='confidence'``)
+        or of a new measurement of it (``'prediction'``), see
+        :meth:`SimplexSpline.confidence_interval`; ``outside`` as in :meth:`predict`."""
+        if outside not in OUTSIDE:
+            raise InputError(f"outside must be one of {OUTSIDE}, got {outside!r}")
+        u = self.scaling.transform(self.inputs(data), clip=outside == "clamp")
+        return self.spline.confidence_interval(
+            u, level, kind=kind, weights=weights,
+            outside="nan" if outside == "nan" else "extrapolate")

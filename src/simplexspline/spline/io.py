@@ -19,6 +19,11 @@ npz (``.npz``): the arrays ``vertices``, ``simplices``, ``coefficients`` (and ``
 plus ``header``, a unicode scalar holding the JSON above without the arrays. Loaded with
 ``allow_pickle=False``.
 
+Optional section ``"statistics"`` (still format version 1; files without it load as
+before): what confidence bounds need (:mod:`simplexspline.spline.statistics`), with its own
+``format``/``version``; the packed Gram blocks and point counts are in it (JSON) or in the
+arrays ``statistics_gram`` and ``statistics_counts`` (npz).
+
 Both are written atomically: to a temporary file in the target directory, then renamed.
 """
 
@@ -39,6 +44,9 @@ __all__ = ["save_spline", "load_spline", "FORMAT", "VERSION", "atomic_write"]
 
 FORMAT = "simplexspline.model"
 VERSION = 1
+
+#: npz array names of the optional statistics section start with this.
+STATS_PREFIX = "statistics_"
 
 
 def atomic_write(path, write) -> None:
@@ -84,8 +92,12 @@ def _header(spline) -> dict:
     }
 
 
-def save_spline(spline, path) -> Path:
-    """Write ``spline`` to ``path`` (``.json`` or ``.npz``) atomically."""
+def save_spline(spline, path, *, statistics: bool = True) -> Path:
+    """Write ``spline`` to ``path`` (``.json`` or ``.npz``) atomically.
+
+    ``statistics``: include the spline's statistics (if it has them, see
+    :meth:`SimplexSpline.with_statistics`) in the optional ``statistics`` section.
+    """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".json", ".npz"):
@@ -100,14 +112,22 @@ def save_spline(spline, path) -> Path:
         json.dumps(header["metadata"])
     except (TypeError, ValueError) as exc:
         raise ModelFileError(f"metadata must be JSON-serialisable: {exc}") from None
+    unc = getattr(spline, "_uncertainty", None) if statistics else None
+    stats_arrays = {}
+    if unc is not None:
+        header["statistics"], stats_arrays = unc.state()
     if suffix == ".json":
         doc = dict(header)
         doc["triangulation"] = {k: v.tolist() for k, v in arrays.items()}
         doc["coefficients"] = spline.coefficients.tolist()
+        if unc is not None:
+            doc["statistics"] = dict(header["statistics"],
+                                     **{k: v.tolist() for k, v in stats_arrays.items()})
         data = json.dumps(doc, allow_nan=False).encode()
         atomic_write(path, _write_bytes(data))
     else:
         arrays["coefficients"] = spline.coefficients
+        arrays.update({f"{STATS_PREFIX}{k}": v for k, v in stats_arrays.items()})
         arrays["header"] = np.array(json.dumps(header, allow_nan=False))
         buf = io.BytesIO()
         np.savez(buf, **arrays)
@@ -124,6 +144,20 @@ def _check_header(doc: dict, path: Path) -> None:
         raise ModelFileError(
             f"{path}: model file version {version!r} is not supported by this simplexspline "
             f"(which reads version {VERSION}); upgrade simplexspline or re-save the model")
+
+
+def _load_statistics(spline, section, arrays: dict, path: Path):
+    """The optional statistics section as an Uncertainty (ModelFileError if invalid)."""
+    from simplexspline.spline.statistics import Uncertainty
+
+    if not isinstance(section, dict):
+        raise ModelFileError(f"{path}: the statistics section must be an object")
+    try:
+        stats_arrays = {k[len(STATS_PREFIX):]: v for k, v in arrays.items()
+                        if k.startswith(STATS_PREFIX)}
+        return Uncertainty.from_state(spline.space, section, stats_arrays)
+    except (SimplexSplineError, KeyError, TypeError, ValueError) as exc:
+        raise ModelFileError(f"{path}: invalid statistics section: {exc}") from None
 
 
 def load_spline(path):
@@ -145,11 +179,21 @@ def load_spline(path):
             _check_header(doc, path)
             arrays = {k: np.asarray(v) for k, v in doc["triangulation"].items()}
             arrays["coefficients"] = np.asarray(doc["coefficients"], dtype=float)
-        tri_data = {k: v for k, v in arrays.items() if k != "coefficients"}
+            if isinstance(doc.get("statistics"), dict):
+                from simplexspline.spline.statistics import ARRAYS
+
+                for k in ARRAYS:
+                    if k in doc["statistics"]:
+                        arrays[STATS_PREFIX + k] = np.asarray(doc["statistics"][k])
+        tri_data = {k: v for k, v in arrays.items()
+                    if k != "coefficients" and not k.startswith(STATS_PREFIX)}
         tri_data["kind"] = doc.get("triangulation_kind", "explicit")
         tri = Triangulation.from_arrays(tri_data)
-        return SimplexSpline(tri, doc["degree"], doc["continuity"],
-                             arrays["coefficients"], metadata=doc.get("metadata") or {})
+        spline = SimplexSpline(tri, doc["degree"], doc["continuity"],
+                               arrays["coefficients"], metadata=doc.get("metadata") or {})
+        if "statistics" in doc:
+            spline._uncertainty = _load_statistics(spline, doc["statistics"], arrays, path)
+        return spline
     except ModelFileError:
         raise
     except SimplexSplineError as exc:

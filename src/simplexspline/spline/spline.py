@@ -249,3 +249,128 @@ class SimplexSpline:
         from simplexspline.spline.io import load_spline
 
         return load_spline(path)
+
+    # ------------------------------------------------------------------ statistics
+    #: Covariance information (:class:`~simplexspline.spline.statistics.Uncertainty`) when
+    #: attached by :meth:`with_statistics` or loaded from a model file that has it.
+    _uncertainty = None
+
+    def with_statistics(self, normal_equations, *, absolute_weights: bool = False,
+                        nobs: int | None = None, covariance: str | None = None,
+                        on_insufficient: str | None = None, ridge: float | None = None,
+                        penalty=None) -> SimplexSpline:
+        """This spline with the statistics of its fit: standard errors, confidence and
+        prediction intervals, covariance of the B-coefficients.
+
+        Parameters
+        ----------
+        normal_equations : NormalEquations
+            The accumulator the spline was solved from::
+
+                ne = space.normal_equations(x, y, weights)
+                spline = space.solve(ne).with_statistics(ne)
+
+        absolute_weights : bool, default False
+            The weights are the inverse noise variances (known noise): sigma^2 = 1 and
+            normal quantiles. By default sigma^2 = RSS / (N - p) is estimated (weights
+            relative) and intervals use Student t with N - p degrees of freedom.
+        nobs : int, optional
+            Number of observations N, when some accumulated points had zero weight.
+        covariance : {'frequentist', 'bayesian'}, optional
+            For ridge or penalised (``smoothing``) fits: the variance of the biased
+            estimate (sandwich) or the Bayesian posterior covariance, which also covers
+            the smoothing bias on average. Default: 'bayesian' with a smoothing penalty,
+            else 'frequentist'.
+        on_insufficient, ridge, penalty : optional
+            The fit's settings when ``self.info`` does not have them (default: from
+            ``self.info``); ``penalty`` as absolute blocks ``lam * P``, shape
+            (J, d_hat, d_hat), for custom penalties.
+
+        Returns
+        -------
+        SimplexSpline
+            A new spline with the same coefficients and the statistics attached (saved with
+            it by :meth:`save`).
+
+        Raises
+        ------
+        InputError
+            Normal equations of another space or of other data than this fit's.
+        InsufficientDataError
+            No data in the normal equations.
+        """
+        from simplexspline.spline.statistics import Uncertainty
+
+        unc = Uncertainty.from_fit(self, normal_equations, absolute_weights=absolute_weights,
+                                   nobs=nobs, covariance=covariance,
+                                   on_insufficient=on_insufficient, ridge=ridge,
+                                   penalty=penalty)
+        out = SimplexSpline(self.triangulation, self.degree, self.continuity,
+                            self.coefficients, space=self.space, info=self.info,
+                            metadata=self.metadata)
+        out._uncertainty = unc
+        return out
+
+    @property
+    def uncertainty(self):
+        """The :class:`~simplexspline.spline.statistics.Uncertainty` of the fit, or None
+        when the spline has no statistics (see :meth:`with_statistics`)."""
+        return self._uncertainty
+
+    def _statistics(self):
+        if self._uncertainty is None:
+            raise InputError(
+                "this spline has no statistics: build them from the normal equations it was "
+                "fitted to, spline = space.solve(ne).with_statistics(ne) (a model file keeps "
+                "them when saved from such a spline)")
+        return self._uncertainty
+
+    def standard_error(self, x, *, outside: str = "nan") -> np.ndarray:
+        """Standard error of the fitted value at each point, shape (N,).
+
+        ``sqrt(sigma^2 * v' K v)`` with ``v`` the (C^0-gathered) basis values at the point
+        and ``K`` the estimator's unscaled covariance (see
+        :mod:`simplexspline.spline.statistics`). Same units as the fitted values.
+
+        Parameters
+        ----------
+        x : array_like, shape (N, n)
+        outside : {'nan', 'raise', 'extrapolate'}, default 'nan'
+            As in :meth:`predict`. NaN also in simplices the data do not determine.
+        """
+        return self._statistics().standard_error(x, outside=outside)
+
+    def confidence_interval(self, x, level: float = 0.95, *, kind: str = "confidence",
+                            weights=None, outside: str = "nan"):
+        """Pointwise interval around the fitted value.
+
+        Parameters
+        ----------
+        x : array_like, shape (N, n)
+        level : float, default 0.95
+            Coverage probability of each (pointwise, not simultaneous) interval.
+        kind : {'confidence', 'prediction'}, default 'confidence'
+            For the true function value (``s(x) -/+ q * se``), or for a new observation at
+            x (``s(x) -/+ q * sqrt(se^2 + sigma^2 / w)``).
+        weights : float or array_like, shape (N,), optional
+            Weights of the new observations (``'prediction'``; default 1, on the scale of
+            the fit's weights).
+        outside : {'nan', 'raise', 'extrapolate'}, default 'nan'
+
+        Returns
+        -------
+        lower, upper : ndarray, shape (N,)
+            ``q`` is the Student t quantile with N - p degrees of freedom (normal with
+            ``absolute_weights``).
+        """
+        unc = self._statistics()
+        center = self.predict(x, outside=outside)
+        return unc.interval(center, x, level, kind=kind, weights=weights, outside=outside)
+
+    def covariance(self) -> np.ndarray:
+        """Covariance of the B-coefficients, shape (J*d_hat, J*d_hat), Eq. 24 order.
+
+        Dense: only for small problems (J*d_hat <= 6000); otherwise use
+        ``uncertainty.covariance_blocks()`` (per simplex) or :meth:`standard_error`.
+        """
+        return self._statistics().covariance()
