@@ -174,3 +174,31 @@ def test_de_casteljau_row_count_mismatch():
         de_casteljau(np.ones((3, 6)), np.full((4, 3), 1 / 3))
     with pytest.raises(InputError, match="(?i)shape|barycentric|columns|n \\+ 1"):
         basis_values(np.full((4, 3, 1), 1 / 3), 2)
+
+
+@pytest.mark.parametrize("n, d", [(1, 0), (1, 4), (2, 3), (3, 5), (6, 2), (5, 4)])
+def test_multi_index_rank_formula_equals_the_table(n, d, monkeypatch):
+    from simplexspline.spline import bform
+
+    kap = multi_indices(n, d)
+    table = bform.multi_index_lookup(kap, d)
+    np.testing.assert_array_equal(table, np.arange(len(kap)))
+    monkeypatch.setattr(bform, "LOOKUP_TABLE_MAX", 0)  # force the rank formula
+    np.testing.assert_array_equal(bform.multi_index_lookup(kap, d), table)
+    rng = np.random.default_rng(n * 10 + d)
+    pick = rng.integers(0, len(kap), (4, 3))
+    np.testing.assert_array_equal(bform.multi_index_lookup(kap[pick], d), pick)
+
+
+def test_basis_values_in_many_variables():
+    """30 variables, degree 3: the dense code table would need 4^30 entries."""
+    rng = np.random.default_rng(0)
+    b = rng.dirichlet(np.ones(31), size=5)
+    B = basis_values(b, 3)
+    assert B.shape == (5, math.comb(33, 3))
+    np.testing.assert_allclose(B.sum(axis=1), 1.0, rtol=1e-12)
+    k = multi_indices(30, 3)
+    direct = (math.factorial(3) / np.prod([[math.factorial(int(v)) for v in row]
+                                           for row in k], axis=1)) * np.prod(
+        b[:, None, :] ** k[None], axis=2)
+    np.testing.assert_allclose(B, direct, rtol=1e-12, atol=1e-300)

@@ -88,6 +88,11 @@ def multi_indices(n: int, d: int) -> np.ndarray:
     return _multi_indices(int(n), int(d))
 
 
+#: Largest dense code table of :func:`multi_index_lookup` (entries); beyond it (many
+#: variables), positions are computed by the combinatorial rank formula instead.
+LOOKUP_TABLE_MAX = 1 << 22
+
+
 @lru_cache(maxsize=256)
 def _lookup(n: int, d: int) -> tuple[np.ndarray, np.ndarray]:
     # Encode a multi-index as an integer in base (d + 1) over its first n components
@@ -100,6 +105,26 @@ def _lookup(n: int, d: int) -> tuple[np.ndarray, np.ndarray]:
     table.setflags(write=False)
     weights.setflags(write=False)
     return table, weights
+
+
+@lru_cache(maxsize=64)
+def _binomials(top: int, k: int) -> np.ndarray:
+    """C(a, b) for 0 <= a <= top, 0 <= b <= k (zero where a < b), int64."""
+    out = np.array([[comb(a, b) for b in range(k + 1)] for a in range(top + 1)],
+                   dtype=np.int64)
+    out.setflags(write=False)
+    return out
+
+
+def _rank(kappa: np.ndarray, d: int) -> np.ndarray:
+    """Eq. 11 positions by counting the multi-indices that precede each one: with
+    ``s_i = d - kappa_0 - ... - kappa_{i-1}``, those that agree up to component i and are
+    larger there number C(s_i - kappa_i + n - i - 1, n - i) (hockey-stick identity)."""
+    n = kappa.shape[-1] - 1
+    binom = _binomials(d + n, n)
+    rem = d - np.cumsum(kappa[..., :n], axis=-1) + kappa[..., :n]  # s_i
+    i = np.arange(n)
+    return binom[rem - kappa[..., :n] + n - i - 1, n - i].sum(axis=-1)
 
 
 def multi_index_lookup(kappa: np.ndarray, d: int) -> np.ndarray:
@@ -118,6 +143,8 @@ def multi_index_lookup(kappa: np.ndarray, d: int) -> np.ndarray:
     """
     kappa = np.asarray(kappa, dtype=np.int64)
     n = kappa.shape[-1] - 1
+    if (d + 1) ** n > LOOKUP_TABLE_MAX:
+        return _rank(kappa, d)
     table, weights = _lookup(n, d)
     return table[kappa[..., :n] @ weights]
 
