@@ -57,4 +57,15 @@ __all__ = [
     "ModelFileError",
     "FlightDataError",
     "SimulationError",
+    "SimplexSplineRegressor",
 ]
+
+
+def __getattr__(name: str):
+    # The scikit-learn estimator is imported on first use: importing scikit-learn (an
+    # optional dependency) costs about a second.
+    if name == "SimplexSplineRegressor":
+        from simplexspline.estimator import SimplexSplineRegressor
+
+        return SimplexSplineRegressor
+    raise AttributeError(f"module 'simplexspline' has no attribute {name!r}")
