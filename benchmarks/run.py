@@ -18,6 +18,8 @@ def main(argv: list[str]) -> int:
         [sys.executable, str(HERE / "bench_fit.py")] + (["--quick", "--repeats", "3"] if quick else []),
         [sys.executable, str(HERE / "bench_sim.py")] + (["--maneuvers", "20", "--repeats", "1"] if quick else []),
         [sys.executable, str(HERE / "bench_reconstruction.py")] + (["--maneuvers", "10"] if quick else []),
+        [sys.executable, str(HERE / "bench_edge.py")] + (["--seeds", "1"] if quick else []),
+        [sys.executable, str(HERE / "bench_compare.py")] + (["--quick"] if quick else []),
     ]
     status = 0
     for cmd in runs:
