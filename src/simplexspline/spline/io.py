@@ -44,6 +44,9 @@ __all__ = ["save_spline", "load_spline", "FORMAT", "VERSION", "atomic_write"]
 
 FORMAT = "simplexspline.model"
 VERSION = 1
+#: Format identifier of varying-coefficient models (coefficients of shape (J, K, d_hat));
+#: readers that know only FORMAT refuse these files instead of misreading them.
+VARYING_FORMAT = "simplexspline.varying-model"
 
 #: npz array names of the optional statistics section start with this.
 STATS_PREFIX = "statistics_"
@@ -79,17 +82,21 @@ def _write_bytes(data: bytes):
 def _header(spline) -> dict:
     from simplexspline import __version__
 
-    return {
-        "format": FORMAT,
+    varying = spline.coefficients.ndim == 3
+    head = {
+        "format": VARYING_FORMAT if varying else FORMAT,
         "version": VERSION,
         "software": f"simplexspline {__version__}",
         "degree": spline.degree,
         "continuity": spline.continuity,
         "ndim": spline.ndim,
-        "nbasis": int(spline.coefficients.shape[1]),
+        "nbasis": int(spline.coefficients.shape[-1]),
         "nsimplex": int(spline.coefficients.shape[0]),
         "metadata": spline.metadata,
     }
+    if varying:
+        head["nterms"] = int(spline.coefficients.shape[1])
+    return head
 
 
 def save_spline(spline, path, *, statistics: bool = True) -> Path:
@@ -136,9 +143,9 @@ def save_spline(spline, path, *, statistics: bool = True) -> Path:
 
 
 def _check_header(doc: dict, path: Path) -> None:
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+    if not isinstance(doc, dict) or doc.get("format") not in (FORMAT, VARYING_FORMAT):
         raise ModelFileError(f"{path}: not a simplexspline model file (no format "
-                             f"{FORMAT!r} header)")
+                             f"{FORMAT!r} or {VARYING_FORMAT!r} header)")
     version = doc.get("version")
     if version != VERSION:
         raise ModelFileError(
@@ -189,6 +196,16 @@ def load_spline(path):
                     if k != "coefficients" and not k.startswith(STATS_PREFIX)}
         tri_data["kind"] = doc.get("triangulation_kind", "explicit")
         tri = Triangulation.from_arrays(tri_data)
+        if doc["format"] == VARYING_FORMAT:
+            from simplexspline.spline.varying import VaryingCoefficientSpline
+
+            coef = np.asarray(arrays["coefficients"], dtype=float)
+            shape = (tri.nsimplex, int(doc["nterms"]), int(doc["nbasis"]))
+            if coef.shape != shape:
+                raise ModelFileError(f"{path}: coefficients of shape {coef.shape}, expected "
+                                     f"{shape}")
+            return VaryingCoefficientSpline(tri, doc["degree"], doc["continuity"], coef,
+                                            metadata=doc.get("metadata") or {})
         spline = SimplexSpline(tri, doc["degree"], doc["continuity"],
                                arrays["coefficients"], metadata=doc.get("metadata") or {})
         if "statistics" in doc:

@@ -234,7 +234,8 @@ def _check_order(order, degree) -> None:
             f"{order} vanish): use penalty='ridge'" + (" or 'membrane'" if degree >= 1 else ""))
 
 
-def penalty_blocks(triangulation, degree: int, penalty="energy") -> np.ndarray:
+def penalty_blocks(triangulation, degree: int, penalty="energy", *,
+                   width: int | None = None) -> np.ndarray:
     """Penalty blocks P_t (J, d_hat, d_hat) of a named kind, or validated custom blocks.
 
     Parameters
@@ -243,6 +244,8 @@ def penalty_blocks(triangulation, degree: int, penalty="energy") -> np.ndarray:
     degree : int
     penalty : {'energy', 'membrane', 'ridge'} or array_like, shape (J, d_hat, d_hat)
         See the module docstring. Custom blocks must be symmetric positive semi-definite.
+    width : int, optional
+        Size of custom blocks when it is not d_hat (varying-coefficient splines: K d_hat).
 
     Returns
     -------
@@ -260,6 +263,7 @@ def penalty_blocks(triangulation, degree: int, penalty="energy") -> np.ndarray:
         raise InputError(f"penalty must be one of {PENALTIES} or an array of blocks, "
                          f"got {penalty!r}")
     P = np.asarray(penalty, dtype=float)
+    dh = dh if width is None else int(width)
     if P.shape != (nsimp, dh, dh):
         raise InputError(f"penalty blocks must have shape (J, d_hat, d_hat) = "
                          f"{(nsimp, dh, dh)}, got {P.shape}")
@@ -498,10 +502,13 @@ class _HutchinsonGCV:
                           shape=(self.M, nsimp * dh))
         qg = np.bincount(self.gather, weights=q.ravel(), minlength=self.M)
         self.rhs = np.column_stack([qg, G @ v])
-        tri = ne.triangulation
-        pts = bnet_points(tri.vertices[tri.simplices], ne.degree).reshape(-1, tri.ndim)
-        self.coords = np.zeros((self.M, tri.ndim))
-        self.coords[self.gather] = pts
+        cache = getattr(system, "solver_cache", None)
+        self.coords = cache.get("points") if cache is not None else None
+        if self.coords is None:
+            tri = ne.triangulation
+            pts = bnet_points(tri.vertices[tri.simplices], ne.degree).reshape(-1, tri.ndim)
+            self.coords = np.zeros((self.M, tri.ndim))
+            self.coords[self.gather] = pts
 
     def evaluate(self, lam: float):
         ne = self.ne
@@ -695,7 +702,7 @@ def solve_penalized(ne, system, *, penalty="energy", smoothing="gcv",
             store[penalty] = penalty_blocks(tri, ne.degree, penalty)
         P = store[penalty]
     else:
-        P = penalty_blocks(tri, ne.degree, penalty)
+        P = penalty_blocks(tri, ne.degree, penalty, width=ne.XtWX.shape[1])
     if ne.npoints == 0 or not np.any(ne.wsum > 0):
         raise InsufficientDataError(
             "no data (or only zero weights) to fit: add data points",

@@ -246,9 +246,15 @@ class SimplexSpline:
     @classmethod
     def load(cls, path) -> SimplexSpline:
         """Load a model file written by :meth:`save`."""
+        from simplexspline.errors import ModelFileError
         from simplexspline.spline.io import load_spline
 
-        return load_spline(path)
+        out = load_spline(path)
+        if not isinstance(out, SimplexSpline):
+            raise ModelFileError(f"{path} holds a varying-coefficient model "
+                                 "(simplexspline.varying-model): load it with "
+                                 "VaryingCoefficientSpline.load or AeroModel.load")
+        return out
 
     # ------------------------------------------------------------------ statistics
     #: Covariance information (:class:`~simplexspline.spline.statistics.Uncertainty`) when

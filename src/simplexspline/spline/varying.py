@@ -1,0 +1,421 @@
+"""Varying-coefficient simplex splines: ``f(z, m) = sum_k m_k s_k(z)``.
+
+Aerodynamic databases (and the physics behind them) are mostly linear in the control
+surface deflections and the non-dimensional rates, with coefficients that vary over the
+flight envelope: ``Cl = Cl_0(alpha, beta, M) + Cl_p(alpha, ...) phat + Cl_da(alpha, ...) da +
+...``. A varying-coefficient spline fits exactly this form: K splines ``s_k`` of one space
+S^r_d(T) over the *scheduling* variables ``z`` (n of them), multiplied by K known
+*multipliers* ``m_k`` (``1``, ``phat``, ``da``, ...). Each ``s_k`` is a C^r simplex spline;
+the model is linear in all their B-coefficients, so the fit is again an
+equality-constrained least-squares problem.
+
+A point in simplex t touches only the coefficients of simplex t of every term: its
+regression row is ``kron(m, B(b))`` (K * d_hat values), so X'WX stays block diagonal with
+J blocks of (K d_hat) x (K d_hat). The blocks are accumulated chunk by chunk exactly like
+:class:`~simplexspline.spline.normal.NormalEquations` (never the dense N x (J K d_hat)
+matrix), and the constrained solver, the ridge and the smoothing penalties with GCV of the
+plain splines apply unchanged, on K copies of the continuity conditions.
+
+Coefficient order: ``coefficients[t, k, :]`` are the B-coefficients (Eq. 11 order) of term
+k on simplex t; flattened per simplex as ``(k, kappa)``.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from simplexspline.errors import InputError, OutsideDomainError
+from simplexspline.spline import kernels
+from simplexspline.spline.bform import basis_values_t, num_basis
+from simplexspline.spline.spline import OUTSIDE_POLICIES, SimplexSpline
+from simplexspline.spline.validation import as_points, as_values, as_weights
+
+__all__ = ["VaryingCoefficientSpace", "VaryingNormalEquations", "VaryingCoefficientSpline"]
+
+#: Points per chunk when accumulating (bounds the (K d_hat) x chunk temporary).
+CHUNK = 1 << 16
+
+
+def _multipliers(m, npts: int, nterms: int) -> np.ndarray:
+    """Validated multipliers, shape (N, K) float."""
+    arr = np.asarray(m, dtype=float)
+    if arr.ndim == 1 and nterms == 1:
+        arr = arr[:, None]
+    if arr.shape != (npts, nterms):
+        raise InputError(f"multipliers must have shape ({npts}, {nterms}) (one column per "
+                         f"term), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = np.nonzero(~np.all(np.isfinite(arr), axis=1))[0]
+        raise InputError(f"{len(bad)} multiplier row(s) hold NaN or inf (first rows "
+                         f"{bad[:5].tolist()}): drop or fill them")
+    return arr
+
+
+class _TermSystem:
+    """The continuity conditions of K independent copies of one space, in the layout the
+    constrained solver expects (``gather``, ``nglobal``, ``A_all``, ``H_full``,
+    ``solver_cache``), for coefficients ordered (simplex, term, basis)."""
+
+    def __init__(self, space, nterms: int):
+        from simplexspline.spline.solve import _global_points
+
+        base = space.system
+        tri = space.triangulation
+        J, dhat, K = tri.nsimplex, space.nbasis, nterms
+        M = base.nglobal
+        g = base.gather.reshape(J, 1, dhat)
+        self.gather = (np.arange(K)[None, :, None] * M + g).reshape(-1).astype(np.int64)
+        self.nglobal = K * M
+        self.A_all = sp.block_diag([base.A_all] * K, format="csr") if base.A_all.shape[0] \
+            else sp.csr_matrix((0, K * M))
+        H = base.H_full.tocoo()
+        R = H.shape[0]
+        t, i = H.col // dhat, H.col % dhat
+        rows = np.concatenate([H.row + k * R for k in range(K)])
+        cols = np.concatenate([t * K * dhat + k * dhat + i for k in range(K)])
+        self.H_full = sp.csr_matrix((np.tile(H.data, K), (rows, cols)),
+                                    shape=(K * R, J * K * dhat))
+        pts = _global_points(tri, space.degree, base.gather, M)
+        self.solver_cache: dict = {"points": np.tile(pts, (K, 1))}
+
+
+class VaryingNormalEquations:
+    """Per-simplex normal-equation blocks of a varying-coefficient fit.
+
+    Attributes
+    ----------
+    XtWX : ndarray, shape (J, K*d_hat, K*d_hat)
+    XtWy : ndarray, shape (J, K*d_hat)
+    ytWy : float
+    wsum : ndarray, shape (J,)
+    counts : ndarray of int, shape (J,)
+
+    Accumulators of one space add (``a + b``, ``a.merge(b)``), so chunks, Parquet row groups
+    or partitions can be accumulated separately.
+    """
+
+    def __init__(self, triangulation, degree: int, nterms: int):
+        self.triangulation = triangulation
+        self.degree = int(degree)
+        self.nterms = int(nterms)
+        J = triangulation.nsimplex
+        width = self.nterms * num_basis(triangulation.ndim, self.degree)
+        self.XtWX = np.zeros((J, width, width))
+        self.XtWy = np.zeros((J, width))
+        self.ytWy = 0.0
+        self.wsum = np.zeros(J)
+        self.counts = np.zeros(J, dtype=np.int64)
+
+    @property
+    def npoints(self) -> int:
+        return int(self.counts.sum())
+
+    def add(self, z, m, y, weights=None) -> VaryingNormalEquations:
+        """Accumulate a chunk in place.
+
+        Parameters
+        ----------
+        z : array_like, shape (N, n)
+            Scheduling variables; all points must lie inside the triangulation.
+        m : array_like, shape (N, K)
+            Multipliers (a column of ones for a constant term).
+        y : array_like, shape (N,)
+        weights : array_like, shape (N,), optional
+            Non-negative weights (inverse noise variances).
+
+        Raises
+        ------
+        OutsideDomainError
+            Points outside the triangulation (nothing is accumulated).
+        """
+        tri = self.triangulation
+        pts = as_points(z, name="z", ndim=tri.ndim)
+        vals = as_values(y, len(pts))
+        mult = _multipliers(m, len(pts), self.nterms)
+        w = as_weights(weights, len(pts))
+        sid = tri.locate(pts)
+        out = np.nonzero(sid < 0)[0]
+        if len(out):
+            raise OutsideDomainError(
+                f"{len(out)} of {len(pts)} points lie outside the triangulation (first rows: "
+                f"{out[:5].tolist()}); drop them or enlarge the triangulation", out)
+        with kernels.one_blas_thread():
+            for s in range(0, len(pts), CHUNK):
+                e = s + CHUNK
+                self._add_located(pts[s:e], mult[s:e], vals[s:e],
+                                  None if w is None else w[s:e], sid[s:e])
+        return self
+
+    def _add_located(self, pts, mult, vals, w, sid) -> None:
+        tri = self.triangulation
+        J = tri.nsimplex
+        order = np.argsort(sid, kind="stable")
+        sid_s = sid[order]
+        bt = basis_values_t(tri._locator_barycentric(pts[order], sid_s).T, self.degree)
+        K = self.nterms
+        rows = (mult[order].T[:, None, :] * bt[None, :, :]).reshape(K * bt.shape[0], -1)
+        ys = vals[order]
+        ws = None if w is None else w[order]
+        wy = ys if ws is None else ws * ys
+        counts = np.bincount(sid, minlength=J)
+        self.counts += counts
+        self.wsum += counts if ws is None else np.bincount(sid_s, weights=ws, minlength=J)
+        self.ytWy += float(wy @ ys)
+        ends = np.cumsum(counts)
+        for j in np.nonzero(counts)[0]:
+            a, b = ends[j] - counts[j], ends[j]
+            rj = rows[:, a:b]
+            rw = rj if ws is None else rj * ws[a:b]
+            self.XtWX[j] += rw @ rj.T
+            self.XtWy[j] += rj @ wy[a:b]
+
+    def check_space(self, triangulation, degree: int, nterms: int) -> None:
+        if degree != self.degree or nterms != self.nterms:
+            raise InputError(f"normal equations of degree {self.degree} with {self.nterms} "
+                             f"terms do not match a space of degree {degree} with {nterms}")
+        if not self.triangulation.same_as(triangulation):
+            raise InputError("the normal equations were accumulated on a different "
+                             "triangulation than this space's")
+
+    def merge(self, other: VaryingNormalEquations) -> VaryingNormalEquations:
+        self.check_space(other.triangulation, other.degree, other.nterms)
+        self.XtWX += other.XtWX
+        self.XtWy += other.XtWy
+        self.ytWy += other.ytWy
+        self.wsum += other.wsum
+        self.counts += other.counts
+        return self
+
+    def copy(self) -> VaryingNormalEquations:
+        out = VaryingNormalEquations.__new__(VaryingNormalEquations)
+        out.__dict__.update({k: (v.copy() if isinstance(v, np.ndarray) else v)
+                             for k, v in self.__dict__.items()})
+        return out
+
+    def __add__(self, other: VaryingNormalEquations) -> VaryingNormalEquations:
+        return self.copy().merge(other)
+
+    def __sub__(self, other: VaryingNormalEquations) -> VaryingNormalEquations:
+        """The blocks of this accumulator without ``other``'s (e.g. all data minus a fold)."""
+        other.check_space(self.triangulation, self.degree, self.nterms)
+        out = self.copy()
+        out.XtWX -= other.XtWX
+        out.XtWy -= other.XtWy
+        out.ytWy -= other.ytWy
+        out.wsum -= other.wsum
+        out.counts -= other.counts
+        return out
+
+
+class VaryingCoefficientSpace:
+    """K copies of a spline space S^r_d(T), combined as ``f(z, m) = sum_k m_k s_k(z)``.
+
+    Parameters
+    ----------
+    space : SplineSpace
+        The space of every term (its triangulation is over the scheduling variables).
+    nterms : int
+        Number K of terms (multipliers), >= 1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from simplexspline import SplineSpace, Triangulation
+    >>> rng = np.random.default_rng(0)
+    >>> z = rng.random((3000, 1))                      # scheduling variable
+    >>> u = rng.uniform(-1, 1, 3000)                   # a control input
+    >>> y = np.sin(3 * z[:, 0]) + (1 + z[:, 0] ** 2) * u
+    >>> space = SplineSpace(Triangulation.grid([0], [1], (4,)), degree=3, continuity=1)
+    >>> vc = VaryingCoefficientSpace(space, 2).fit(z, np.column_stack([np.ones(3000), u]), y)
+    >>> bool(abs(vc.predict([[0.5]], [[1.0, 0.5]])[0] - (np.sin(1.5) + 0.5 * 1.25)) < 1e-3)
+    True
+    """
+
+    def __init__(self, space, nterms: int):
+        if isinstance(nterms, bool) or not isinstance(nterms, (int, np.integer)) or nterms < 1:
+            raise InputError(f"nterms must be an integer >= 1, got {nterms!r}")
+        self.space = space
+        self.nterms = int(nterms)
+
+    def __repr__(self) -> str:
+        s = self.space
+        return (f"VaryingCoefficientSpace({self.nterms} x S^{s.continuity}_{s.degree}, "
+                f"ndim={s.ndim}, nsimplex={s.triangulation.nsimplex})")
+
+    @property
+    def triangulation(self):
+        return self.space.triangulation
+
+    @property
+    def dim_coefficients(self) -> int:
+        """Number of B-coefficients, J * K * d_hat."""
+        return self.nterms * self.space.dim_coefficients
+
+    @cached_property
+    def system(self) -> _TermSystem:
+        return _TermSystem(self.space, self.nterms)
+
+    def normal_equations(self, z=None, m=None, y=None, weights=None) -> VaryingNormalEquations:
+        """An accumulator, optionally filled with a first chunk."""
+        ne = VaryingNormalEquations(self.triangulation, self.space.degree, self.nterms)
+        if z is not None:
+            ne.add(z, m, y, weights)
+        return ne
+
+    def penalty_blocks(self, penalty="energy") -> np.ndarray:
+        """Per-simplex penalty blocks of every term, shape (J, K*d_hat, K*d_hat): the plain
+        space's blocks (:func:`~simplexspline.spline.penalty.penalty_blocks`) on the
+        diagonal."""
+        from simplexspline.spline.penalty import penalty_blocks
+
+        P = penalty_blocks(self.triangulation, self.space.degree, penalty)
+        J, dh, _ = P.shape
+        out = np.zeros((J, self.nterms * dh, self.nterms * dh))
+        for k in range(self.nterms):
+            out[:, k * dh:(k + 1) * dh, k * dh:(k + 1) * dh] = P
+        return out
+
+    def solve(self, normal_equations: VaryingNormalEquations, *,
+              on_insufficient: str = "raise", ridge: float | None = None, smoothing=None,
+              penalty="energy") -> VaryingCoefficientSpline:
+        """Solve for the B-coefficients of all terms.
+
+        Parameters as :meth:`SplineSpace.fit`: ``on_insufficient`` ('raise', 'minnorm',
+        'ridge'), ``ridge`` (relative), ``smoothing`` ('gcv' or a relative weight, one
+        weight for all terms: put the multipliers on comparable scales) and ``penalty``
+        (a kind, applied to every term, or blocks of shape (J, K*d_hat, K*d_hat)).
+        """
+        from simplexspline.spline.solve import solve_constrained
+
+        if not isinstance(normal_equations, VaryingNormalEquations):
+            raise InputError("solve() takes a VaryingNormalEquations accumulator (from "
+                             "VaryingCoefficientSpace.normal_equations)")
+        sp_ = self.space
+        normal_equations.check_space(sp_.triangulation, sp_.degree, self.nterms)
+        if smoothing is None:
+            coef, info = solve_constrained(normal_equations, self.system,
+                                           on_insufficient=on_insufficient, ridge=ridge)
+        else:
+            from simplexspline.spline.penalty import solve_penalized
+
+            P = self.penalty_blocks(penalty) if isinstance(penalty, str) else penalty
+            coef, info = solve_penalized(normal_equations, self.system, penalty=P,
+                                         smoothing=smoothing,
+                                         on_insufficient=on_insufficient, ridge=ridge)
+            if isinstance(penalty, str):
+                info.regularization.penalty = penalty
+        J, dh = sp_.triangulation.nsimplex, sp_.nbasis
+        return VaryingCoefficientSpline(sp_.triangulation, sp_.degree, sp_.continuity,
+                                        coef.reshape(J, self.nterms, dh), info=info)
+
+    def fit(self, z, m, y, weights=None, **kwargs) -> VaryingCoefficientSpline:
+        """Accumulate and solve in one call (keyword arguments as :meth:`solve`)."""
+        return self.solve(self.normal_equations(z, m, y, weights), **kwargs)
+
+
+class VaryingCoefficientSpline:
+    """A fitted ``f(z, m) = sum_k m_k s_k(z)``: K simplex splines on one triangulation.
+
+    Parameters
+    ----------
+    triangulation : Triangulation
+    degree, continuity : int
+    coefficients : array_like, shape (J, K, d_hat)
+    metadata : dict, optional
+    """
+
+    def __init__(self, triangulation, degree: int, continuity: int, coefficients, *,
+                 info=None, metadata: dict | None = None):
+        coef = np.asarray(coefficients, dtype=float)
+        if coef.ndim != 3:
+            raise InputError(f"coefficients must have shape (J, K, d_hat), got {coef.shape}")
+        self.terms = [SimplexSpline(triangulation, degree, continuity, coef[:, k, :])
+                      for k in range(coef.shape[1])]
+        self.triangulation = triangulation
+        self.degree, self.continuity = self.terms[0].degree, self.terms[0].continuity
+        self.coefficients = coef
+        self.info = info
+        self.metadata = dict(metadata or {})
+
+    @property
+    def nterms(self) -> int:
+        return self.coefficients.shape[1]
+
+    @property
+    def ndim(self) -> int:
+        return self.triangulation.ndim
+
+    def __repr__(self) -> str:
+        return (f"VaryingCoefficientSpline({self.nterms} x S^{self.continuity}_{self.degree}, "
+                f"ndim={self.ndim}, nsimplex={self.triangulation.nsimplex})")
+
+    def _locate(self, z, outside: str):
+        if outside not in OUTSIDE_POLICIES:
+            raise InputError(f"outside must be one of {OUTSIDE_POLICIES}, got {outside!r}")
+        tri = self.triangulation
+        pts = as_points(z, name="z", ndim=tri.ndim)
+        sid = tri.locate(pts)
+        bad = np.nonzero(sid < 0)[0]
+        if len(bad) and outside == "raise":
+            raise OutsideDomainError(
+                f"{len(bad)} of {len(pts)} points lie outside the triangulation (first rows: "
+                f"{bad[:5].tolist()}); use outside='nan' or 'extrapolate'", bad)
+        if len(bad) and outside == "extrapolate":
+            sid[bad] = tri.nearest(pts[bad])
+        return pts, sid
+
+    def term_values(self, z, *, outside: str = "nan") -> np.ndarray:
+        """The K term splines at the points, shape (N, K): ``s_k(z)``, which is also the
+        derivative of ``f`` with respect to ``m_k``."""
+        pts, sid = self._locate(z, outside)
+        out = np.full((len(pts), self.nterms), np.nan)
+        ok = sid >= 0
+        for k, s in enumerate(self.terms):
+            out[ok, k] = s.predict(pts[ok], simplices=sid[ok])
+        return out
+
+    def predict(self, z, m, *, outside: str = "nan") -> np.ndarray:
+        """``f(z, m)``, shape (N,).
+
+        Parameters
+        ----------
+        z : array_like, shape (N, n)
+        m : array_like, shape (N, K)
+        outside : {'nan', 'raise', 'extrapolate'}
+            For scheduling points outside the triangulation (as :meth:`SimplexSpline.predict`).
+        """
+        vals = self.term_values(z, outside=outside)
+        return np.einsum("nk,nk->n", vals, _multipliers(m, len(vals), self.nterms))
+
+    def gradient(self, z, m, *, outside: str = "nan"):
+        """Exact partial derivatives: ``(df/dz, df/dm)`` of shapes (N, n) and (N, K)."""
+        pts, sid = self._locate(z, outside)
+        mult = _multipliers(m, len(pts), self.nterms)
+        gz = np.full((len(pts), self.ndim), np.nan)
+        gm = np.full((len(pts), self.nterms), np.nan)
+        ok = sid >= 0
+        if np.any(ok):
+            gz[ok] = 0.0
+            for k, s in enumerate(self.terms):
+                gz[ok] += mult[ok, k, None] * s.gradient(pts[ok], simplices=sid[ok])
+                gm[ok, k] = s.predict(pts[ok], simplices=sid[ok])
+        return gz, gm
+
+    def save(self, path):
+        """Write the model (``.json`` or ``.npz``, atomically; see docs/model-format.md)."""
+        from simplexspline.spline.io import save_spline
+
+        return save_spline(self, path)
+
+    @staticmethod
+    def load(path) -> VaryingCoefficientSpline:
+        from simplexspline.spline.io import load_spline
+
+        out = load_spline(path)
+        if not isinstance(out, VaryingCoefficientSpline):
+            raise InputError(f"{path} holds a plain SimplexSpline, not a varying-coefficient "
+                             "model: load it with SimplexSpline.load")
+        return out
