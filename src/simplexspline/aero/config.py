@@ -29,6 +29,13 @@ A config file (all tables and keys optional)::
     continuity = 1
     resolution = [3, 1, 1, 1]  # grid cells per variable (an integer applies to all)
 
+    [models.Cl]                # varying coefficient: Cl = sum_k m_k s_k(alpha, beta, mach)
+    variables = ["alpha", "beta", "mach"]
+    multipliers = ["1", "phat", "rhat", "da", "dr"]
+    knots = { alpha = [-0.0873, 0.0, 0.0873, 0.1745], mach = [0.6, 0.8] }
+    degree = 2
+    continuity = 0
+
 Structures on the command line use the label format printed in tables, e.g.
 ``"CZ(alpha:3, de, mach) S^1_3"`` (``:k`` = k grid cells), or the short form
 ``"CZ=alpha,de,mach"`` (S^1_3, one cell per variable).
@@ -43,7 +50,12 @@ from pathlib import Path
 
 from simplexspline.aero.identify import IdentificationSettings
 from simplexspline.aero.selection import SelectionSettings
-from simplexspline.aero.structure import COEFFICIENTS, Structure, structures_from_config
+from simplexspline.aero.structure import (
+    COEFFICIENTS,
+    Structure,
+    parse_knots,
+    structures_from_config,
+)
 from simplexspline.errors import InputError
 
 __all__ = ["load_config", "parse_structure", "settings_from_config"]
@@ -54,7 +66,12 @@ _SHORT = re.compile(r"^\s*(?P<coef>\w+)\s*=\s*(?P<vars>.+?)\s*$")
 
 
 def parse_structure(text: str) -> Structure:
-    """A structure from ``'CZ(alpha:3, de, mach) S^1_3'`` or ``'CZ=alpha,de,mach'``."""
+    """A structure from ``'CZ(alpha:3, de, mach) S^1_3'`` or ``'CZ=alpha,de,mach'``.
+
+    Varying-coefficient structures list their multipliers after ``|`` and breakpoints
+    after ``@``: ``'Cl(alpha@-10:25:5deg, beta:2, mach@0.6/0.8 | 1, phat, rhat, da, dr)
+    S^0_2'`` (see :func:`~simplexspline.aero.structure.parse_knots`).
+    """
     m = _LABEL.match(text) or _SHORT.match(text)
     if not m:
         raise InputError(f"cannot read the model structure {text!r}; write e.g. "
@@ -63,10 +80,22 @@ def parse_structure(text: str) -> Structure:
     if coef not in COEFFICIENTS:
         raise InputError(f"unknown coefficient {coef!r} in {text!r}; known: "
                          f"{list(COEFFICIENTS)}")
-    variables, resolution = [], []
-    for part in m.group("vars").split(","):
+    var_text, bar, mult_text = m.group("vars").partition("|")
+    multipliers = tuple(p.strip() for p in mult_text.split(",") if p.strip()) if bar else ()
+    if bar and not multipliers:
+        raise InputError(f"no multipliers after '|' in {text!r}: list them, e.g. "
+                         "'| 1, da' (1 is the constant term)")
+    variables, resolution, knots = [], [], {}
+    for part in var_text.split(","):
         part = part.strip()
         if not part:
+            continue
+        if "@" in part:
+            name, _, spec = part.partition("@")
+            name = name.strip()
+            knots[name] = parse_knots(name, spec)
+            variables.append(name)
+            resolution.append(1)
             continue
         name, _, cells = part.partition(":")
         variables.append(name.strip())
@@ -78,7 +107,8 @@ def parse_structure(text: str) -> Structure:
     groups = m.groupdict()
     degree = int(groups["d"]) if groups.get("d") else 3
     continuity = int(groups["r"]) if groups.get("r") else min(1, degree - 1)
-    return Structure(coef, tuple(variables), degree, continuity, tuple(resolution))
+    return Structure(coef, tuple(variables), degree, continuity, tuple(resolution),
+                     multipliers, tuple(knots.items()))
 
 
 def _read_toml(path: Path) -> dict:

@@ -236,10 +236,14 @@ def reference_conditions(models, data=None, overrides: Mapping | None = None) ->
 
 
 def _centre(model: AeroModel, variable: str) -> float:
-    """Sample-weighted mean of the simplex centroids along ``variable`` (physical)."""
+    """Sample-weighted mean of the simplex centroids along ``variable`` (physical); for a
+    multiplier that is not a triangulation variable, the middle of its range."""
+    if variable not in model.schedule:
+        i = model.variables.index(variable)
+        return 0.5 * (model.scaling.lower[i] + model.scaling.upper[i])
     tri = model.spline.triangulation
-    cen = model.scaling.inverse(np.asarray(tri.vertices)[np.asarray(tri.simplices)]
-                                .mean(axis=1))[:, model.variables.index(variable)]
+    cen = model.schedule_scaling.inverse(np.asarray(tri.vertices)[np.asarray(tri.simplices)]
+                                         .mean(axis=1))[:, model.schedule.index(variable)]
     w = np.asarray(model.provenance.get("counts", ()), dtype=float)
     if w.shape != cen.shape or not w.sum() > 0:
         w = np.ones_like(cen)
@@ -387,8 +391,7 @@ def derivatives(models, at=None, *, wrt: Sequence[str] | None = None,
         for i, v in enumerate(model.variables):
             if v not in cond.columns:
                 extra.setdefault(v, x[:, i])
-        u = model.scaling.transform(x)
-        sid = model.spline.triangulation.locate(u)
+        sid = model.locate(x)
         ok = sid >= 0
         counts = np.asarray(model.provenance.get("counts", ()), dtype=np.int64)
         if counts.shape == (model.spline.triangulation.nsimplex,):

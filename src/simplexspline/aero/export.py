@@ -64,9 +64,14 @@ JSBSIM_PROPERTIES = {
 def load_exportable(path) -> AeroModel | SimplexSpline:
     """An :class:`AeroModel` when the model file carries the aerodynamic description,
     else the plain :class:`SimplexSpline`."""
-    spline = SimplexSpline.load(path)
+    from simplexspline.spline.io import load_spline
+
+    spline = load_spline(path)
     if isinstance(spline.metadata.get("aero"), dict):
         return AeroModel.load(path)
+    if not isinstance(spline, SimplexSpline):
+        raise InputError(f"{path}: a varying-coefficient spline without an aerodynamic "
+                         "description cannot be exported")
     return spline
 
 
@@ -273,6 +278,10 @@ def generate_aero_c(model: AeroModel, prefix: str | None = None, *, outside: str
     if not isinstance(model, AeroModel):
         raise InputError(f"generate_aero_c needs an AeroModel, got {type(model).__name__}; "
                          "use simplexspline.spline.export.generate_c for a SimplexSpline")
+    if model.varying or not model.scaling.affine:
+        raise InputError(f"C export covers plain spline models with affine scaling; "
+                         f"{model.structure.label()} has multipliers or breakpoints: export "
+                         "it as a lookup table (--table) instead")
     if outside not in POLICIES:
         raise InputError(f"outside must be one of {POLICIES}, got {outside!r}")
     prefix = c_identifier(prefix if prefix is not None else

@@ -326,7 +326,7 @@ def _check_columns(df, structures: Mapping, coefficients, extra=()) -> None:
         if c not in cols:
             raise FlightDataError(f"coefficient column {c!r} is missing from the data")
     for c, s in structures.items():
-        missing = [v for v in s.variables if v not in cols]
+        missing = [v for v in s.inputs if v not in cols]
         if missing:
             raise InputError(f"unknown variable(s) {missing} in the structure of {c}; the "
                              f"data have {sorted(cols)}")
@@ -382,7 +382,7 @@ def identify(df, metadata: Mapping | None = None, *,
     data = data.copy(deep=False)
     data.attrs = {}
     _check_columns(data, structures, settings.coefficients)
-    used = sorted({v for s in structures.values() for v in s.variables}
+    used = sorted({v for s in structures.values() for v in s.inputs}
                   | set(settings.coefficients)
                   | ({v for v in settings.selection.candidates if v in data.columns}
                      if settings.select else set()))
@@ -456,6 +456,7 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
     model = fit_structure(best, columns, y, min_points=settings.selection.min_points,
                           ridge=settings.selection.ridge,
+                          smoothing=settings.selection.smoothing,
                           provenance={"coefficient": c, **({"source": source}
                                                             if source else {})})
     pred_v = model.predict(valid)
@@ -466,10 +467,10 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                       maneuvers=valid["maneuver"].to_numpy())
     i_scores = scores(y, model.predict(ident), truth=truth_i, maneuvers=mans, max_lag=0)
     counts = np.asarray(model.provenance["counts"])
-    thin = np.nonzero(counts < settings.thin_factor * best.nbasis)[0]
+    thin = np.nonzero(counts < settings.thin_factor * best.ncoef_per_simplex)[0]
     if len(thin):
         msg = (f"{c}: {len(thin)} of {len(counts)} simplices hold fewer than "
-               f"{settings.thin_factor:g} x d_hat = {int(settings.thin_factor * best.nbasis)}"
+               f"{settings.thin_factor:g} x K d_hat = {int(settings.thin_factor * best.ncoef_per_simplex)}"
                f" samples (fewest: {int(counts.min())}); the model is poorly supported there")
         notes.append(msg)
         warnings.warn(msg, ThinDataWarning, stacklevel=3)

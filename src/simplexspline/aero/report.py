@@ -642,11 +642,11 @@ def _projected_edges(points: np.ndarray, simplices: np.ndarray) -> np.ndarray:
 def _fig_triangulation(r, c: str, model, ident, thin) -> _Figure | None:
     from matplotlib.collections import LineCollection
 
-    names = list(model.variables)
+    names = list(model.schedule)
     if len(names) < 2:
         return None
     tri = model.spline.triangulation
-    phys = model.scaling.inverse(np.asarray(tri.vertices, dtype=float))
+    phys = model.schedule_scaling.inverse(np.asarray(tri.vertices, dtype=float))
     simplices = np.asarray(tri.simplices, dtype=int)
     centroids = phys[simplices].mean(axis=1)
     views = [(0, 1)] + ([(0, 2)] if len(names) >= 3 else [])
@@ -847,12 +847,20 @@ def _structure_rows(res, ident) -> tuple[list, list]:
     model = res.model
     head = ["variable", "unit", "lower", "upper", "grid cells", "median (ident.)"]
     rows = []
+    cells = model.scaling.cells
     for i, v in enumerate(model.variables):
         unit, f = _unit(v)
         col = _column(ident, v)
+        if i >= len(model.schedule):
+            grid = "multiplier"
+        elif cells[i] is not None:
+            grid = f"{cells[i]} (breakpoints)"
+        else:
+            grid = str(model.structure.resolution[i])
         rows.append([v, unit, _fmt(model.scaling.lower[i] * f), _fmt(model.scaling.upper[i] * f),
-                     str(model.structure.resolution[i]),
-                     "" if col is None else _fmt(float(np.median(col)) * f)])
+                     grid, "" if col is None else _fmt(float(np.median(col)) * f)])
+    if model.varying:
+        rows.append(["multipliers", "", "", "", ", ".join(model.structure.multipliers), ""])
     return head, rows
 
 
@@ -1050,7 +1058,7 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
         summary = (f"degree {s.degree}, continuity C^{s.continuity}, "
                    f"{model.spline.triangulation.nsimplex} simplices, "
                    f"{int(np.asarray(model.spline.coefficients).size)} B-coefficients, "
-                   f"{s.nbasis} per simplex; fitted in {_fmt(res.seconds, '.1f')} s. "
+                   f"{s.ncoef_per_simplex} per simplex; fitted in {_fmt(res.seconds, '.1f')} s. "
                    f"Validation: RMS {_fmt(v.get('rms'), '.3e')}, relative RMS "
                    f"{_pct(v.get('rrms'))}, R² {_fmt(v.get('r2'), '.4f')}, bias "
                    f"{_fmt(v.get('bias'), '.2e')}, max |error| {_fmt(v.get('max_abs'), '.2e')}"
@@ -1086,7 +1094,7 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
         figs = [slot(f"{c} slices", _fig_slices, c, model, ident),
                 slot(f"{c} validation", _fig_validation, c, valid, model,
                      truth and f"true_{c}" in valid.columns),
-                slot(f"{c} diagnostics", _fig_diagnostics, c, res, thin_factor * s.nbasis),
+                slot(f"{c} diagnostics", _fig_diagnostics, c, res, thin_factor * s.ncoef_per_simplex),
                 slot(f"{c} triangulation", _fig_triangulation, c, model, ident, res.thin)]
         H += figs
         M += figs

@@ -28,6 +28,7 @@ from simplexspline.aero.structure import Scaling, Structure
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.space import SplineSpace
 from simplexspline.spline.triangulation import Triangulation
+from simplexspline.spline.varying import VaryingCoefficientSpace
 
 __all__ = ["SelectionSettings", "Trial", "cv_score", "fit_structure", "select_structure"]
 
@@ -63,6 +64,11 @@ class SelectionSettings:
     max_samples : int
         The search uses at most this many identification samples (every k-th sample, so
         all maneuvers stay); the final fit uses all of them.
+    smoothing : None, 'gcv' or float
+        Smoothness-energy regularisation of every fit (weight by GCV, or a fixed relative
+        weight; see docs/regularization.md): the thin-plate energy, or for C^0 structures
+        the membrane energy (squared gradients; the thin-plate energy does not see kinks
+        across facets). None: only the tiny ridge.
     """
 
     candidates: tuple = ("alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr")
@@ -78,6 +84,7 @@ class SelectionSettings:
     max_samples: int = 150_000
     moves: tuple = ("degree", "resolution", "variables")
     ridge: float = 1e-8
+    smoothing: object = None
 
     def to_dict(self) -> dict:
         return {k: (list(v) if isinstance(v, tuple) else v)
@@ -134,15 +141,46 @@ def _matrix(columns: Mapping, variables: Sequence[str]) -> np.ndarray:
 
 
 def _space(structure: Structure, x: np.ndarray, min_points: int):
-    scaling = Scaling.from_data(x, structure.variables)
-    u = scaling.transform(x)
-    tri = Triangulation.fit(u, structure.resolution, min_points=min_points)
-    return scaling, u, SplineSpace(tri, structure.degree, structure.continuity)
+    """Scaling, scaled scheduling variables (N, n), multipliers (N, K) or None, their
+    scales, and the spline space of a structure fitted to inputs ``x`` (N, len(inputs))."""
+    scaling = Scaling.from_data(x, structure.inputs, structure.knots_of)
+    n = structure.ndim
+    u = scaling.subset(structure.variables).transform(x[:, :n])
+    res = tuple(c if c is not None else r
+                for c, r in zip(scaling.cells[:n], structure.resolution))
+    tri = Triangulation.fit(u, res, min_points=min_points)
+    space = SplineSpace(tri, structure.degree, structure.continuity)
+    if not structure.varying:
+        return scaling, u, None, (), space
+    cols, scales = [], []
+    for name in structure.multipliers:
+        col = np.ones(len(x)) if name == "1" else x[:, structure.inputs.index(name)]
+        scale = 1.0 if name == "1" else float(np.sqrt(np.mean(col ** 2)))
+        if not scale > 0:
+            raise InputError(f"multiplier {name!r} of {structure.coefficient} is zero "
+                             "throughout the identification data: remove it")
+        cols.append(col / scale)
+        scales.append(scale)
+    return (scaling, u, np.column_stack(cols), tuple(scales),
+            VaryingCoefficientSpace(space, structure.nterms))
+
+
+def _accumulate(space, u, m, y, weights=None):
+    """Normal equations of (u, m, y) on a plain or varying-coefficient space."""
+    if m is None:
+        return space.normal_equations(u, y, weights)
+    return space.normal_equations(u, m, y, weights)
+
+
+def _predict(spline, u, m, outside: str = "extrapolate"):
+    return spline.predict(u, outside=outside) if m is None else \
+        spline.predict(u, m, outside=outside)
 
 
 def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
                   weights: np.ndarray | None = None, min_points: int = 10,
-                  ridge: float = 1e-8, provenance: dict | None = None) -> AeroModel:
+                  ridge: float = 1e-8, smoothing=None,
+                  provenance: dict | None = None) -> AeroModel:
     """Fit one coefficient model of the given structure on all the given samples.
 
     Parameters
@@ -158,35 +196,56 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
     ridge : float
         Relative ridge weight (see :class:`SelectionSettings`); 0 takes the minimum-norm
         solution in undetermined directions.
+    smoothing : 'gcv' or float, optional
+        Smoothness-energy regularisation (:meth:`SplineSpace.fit`; membrane energy for
+        C^0 structures, thin-plate energy otherwise); None: none.
 
     Returns
     -------
     AeroModel
         ``provenance['counts']`` lists the samples per simplex.
     """
-    x = _matrix(columns, structure.variables)
-    scaling, u, space = _space(structure, x, min_points)
-    ne = space.normal_equations()
+    x = _matrix(columns, structure.inputs)
+    scaling, u, m, mscale, space = _space(structure, x, min_points)
     keep = space.triangulation.locate(u) >= 0
-    ne.add(u[keep], np.asarray(y, dtype=float)[keep],
-           None if weights is None else np.asarray(weights)[keep])
-    spline = _solve(space, ne, ridge)
+    ne = _accumulate(space, u[keep], None if m is None else m[keep],
+                     np.asarray(y, dtype=float)[keep],
+                     None if weights is None else np.asarray(weights)[keep])
+    spline = _solve(space, ne, ridge, smoothing)
     prov = dict(provenance or {})
     prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
                 counts=ne.counts.tolist(), nbasis=structure.nbasis,
                 nsimplex=space.triangulation.nsimplex,
                 ncoefficients=int(space.dim_coefficients))
-    return AeroModel(structure, scaling, spline, prov)
+    reg = getattr(spline.info, "regularization", None)
+    if reg is not None:
+        prov["smoothing"] = {"penalty": reg.penalty, "relative_weight": reg.smoothing,
+                             "edf": reg.edf}
+    return AeroModel(structure, scaling, spline, prov, mscale)
 
 
-def _solve(space, ne, ridge: float):
+def _penalty(space) -> str:
+    """The smoothing penalty of a space: the thin-plate energy, or for C^0 spaces (whose
+    kinks across facets the energy does not see) the membrane energy."""
+    return "membrane" if _continuity(space) == 0 \
+        else "energy"
+
+
+def _continuity(space) -> int:
+    return space.space.continuity if isinstance(space, VaryingCoefficientSpace) \
+        else space.continuity
+
+
+def _solve(space, ne, ridge: float, smoothing=None):
+    kw = {} if smoothing is None else {"smoothing": smoothing, "penalty": _penalty(space)}
     if ridge > 0:
-        return space.solve(ne, on_insufficient="ridge", ridge=ridge)
-    return space.solve(ne, on_insufficient="minnorm")
+        return space.solve(ne, on_insufficient="ridge", ridge=ridge, **kw)
+    return space.solve(ne, on_insufficient="minnorm", **kw)
 
 
 def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray, *,
-             min_points: int = 10, ridge: float = 1e-8) -> tuple[float, int, int]:
+             min_points: int = 10, ridge: float = 1e-8,
+             smoothing=None) -> tuple[float, int, int]:
     """k-fold cross-validation RMS (folds = whole maneuvers).
 
     Returns
@@ -195,16 +254,16 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         RMS of the held-out residuals over all folds.
     ncoefficients, nsimplex : int
     """
-    x = _matrix(columns, structure.variables)
+    x = _matrix(columns, structure.inputs)
     y = np.asarray(y, dtype=float)
-    _scaling, u, space = _space(structure, x, min_points)
+    _scaling, u, m, _mscale, space = _space(structure, x, min_points)
     tri = space.triangulation
     sid = tri.locate(u)
     k = int(folds.max()) + 1
     parts = []
     for f in range(k):
         sel = (folds == f) & (sid >= 0)
-        parts.append(space.normal_equations(u[sel], y[sel]))
+        parts.append(_accumulate(space, u[sel], None if m is None else m[sel], y[sel]))
     total = parts[0].copy()
     for p in parts[1:]:
         total.merge(p)
@@ -216,9 +275,9 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         train.ytWy -= parts[f].ytWy
         train.wsum -= parts[f].wsum
         train.counts -= parts[f].counts
-        spline = _solve(space, train, ridge)
+        spline = _solve(space, train, ridge, smoothing)
         held = folds == f
-        pred = spline.predict(u[held], outside="extrapolate")
+        pred = _predict(spline, u[held], None if m is None else m[held])
         sse += float(np.sum((y[held] - pred) ** 2))
     return float(np.sqrt(sse / len(y))), int(space.dim_coefficients), int(tri.nsimplex)
 
@@ -235,6 +294,8 @@ def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[s
                         s.with_(degree=d, continuity=min(s.continuity, d - 1))))
     if "resolution" in settings.moves:
         for i, v in enumerate(s.variables):
+            if v in s.knots_of:
+                continue  # the breakpoints fix the grid along v
             res = list(s.resolution)
             if res[i] < settings.max_resolution:
                 res[i] += 1
@@ -245,7 +306,17 @@ def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[s
                 res[i] -= 1
                 out.append((f"coarsen {v} ({res[i] + 1}->{res[i]} cells)",
                             s.with_(resolution=tuple(res))))
-    if "variables" in settings.moves:
+    if "variables" in settings.moves and s.varying:
+        # varying-coefficient structures keep their scheduling variables; the moves add
+        # or remove multipliers
+        for v in settings.candidates:
+            if v in available and v not in s.multipliers:
+                out.append((f"add multiplier {v}", s.with_(multipliers=(*s.multipliers, v))))
+        if len(s.multipliers) > 1:
+            for v in s.multipliers:
+                out.append((f"remove multiplier {v}", s.with_(
+                    multipliers=tuple(w for w in s.multipliers if w != v))))
+    elif "variables" in settings.moves:
         if s.ndim < settings.max_variables:
             for v in settings.candidates:
                 if v in available and v not in s.variables:
@@ -271,7 +342,7 @@ def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[s
 
 
 def _size(s: Structure) -> int:
-    return s.nsimplex_max * s.nbasis
+    return s.nsimplex_max * s.ncoef_per_simplex
 
 
 def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
@@ -324,14 +395,15 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     history: list = []
 
     def score(s: Structure, rnd: int, move: str) -> float:
-        key = (s.variables, s.degree, s.continuity, s.resolution)
+        key = s
         if key in seen:
             return seen[key]
         t0 = time.perf_counter()
         trial = Trial(s, float("inf"), rnd, move)
         try:
             trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
-                s, cols, ys, folds, min_points=settings.min_points, ridge=settings.ridge)
+                s, cols, ys, folds, min_points=settings.min_points, ridge=settings.ridge,
+                smoothing=settings.smoothing)
         except SimplexSplineError as exc:
             trial.error = str(exc)[:300]
         trial.seconds = time.perf_counter() - t0

@@ -27,6 +27,8 @@ __all__ = [
     "UNITS",
     "Scaling",
     "Structure",
+    "format_knots",
+    "parse_knots",
     "preset",
     "structures_from_config",
 ]
@@ -71,6 +73,8 @@ class Structure:
     degree: int = 3
     continuity: int = 1
     resolution: tuple = field(default=())
+    multipliers: tuple = field(default=())
+    knots: tuple = field(default=())
 
     def __post_init__(self):
         variables = tuple(str(v) for v in self.variables)
@@ -80,6 +84,29 @@ class Structure:
         if len(set(variables)) != len(variables):
             raise InputError(f"structure of {self.coefficient}: repeated variable in "
                              f"{list(variables)}")
+        mult = tuple(str(m).strip() for m in self.multipliers)
+        if len(set(mult)) != len(mult) or any(not m for m in mult):
+            raise InputError(f"structure of {self.coefficient}: repeated or empty multiplier "
+                             f"in {list(mult)}")
+        object.__setattr__(self, "multipliers", mult)
+        knots = dict(self.knots) if not isinstance(self.knots, Mapping) else self.knots
+        clean = []
+        for v, ks in knots.items():
+            if v not in variables:
+                raise InputError(f"structure of {self.coefficient}: knots given for {v!r}, "
+                                 f"which is not one of the variables {list(variables)}")
+            try:
+                arr = tuple(float(k) for k in ks)
+            except (TypeError, ValueError):
+                raise InputError(f"structure of {self.coefficient}: knots of {v!r} must be "
+                                 f"numbers, got {ks!r}") from None
+            if not arr or not all(np.isfinite(arr)) or any(b <= a for a, b in
+                                                           zip(arr, arr[1:])):
+                raise InputError(f"structure of {self.coefficient}: knots of {v!r} must be "
+                                 f"finite and strictly increasing, got {list(arr)}")
+            clean.append((v, arr))
+        object.__setattr__(self, "knots", tuple(sorted(clean, key=lambda t: variables.index(
+            t[0]))))
         res = tuple(self.resolution) if len(self.resolution) else (1,) * len(variables)
         if len(res) != len(variables):
             raise InputError(f"structure of {self.coefficient}: resolution {list(res)} must "
@@ -99,37 +126,91 @@ class Structure:
 
     @property
     def ndim(self) -> int:
+        """Number of (scheduling) variables of the triangulation."""
         return len(self.variables)
+
+    @property
+    def varying(self) -> bool:
+        """A varying-coefficient structure ``C = sum_k m_k s_k(variables)``."""
+        return bool(self.multipliers)
+
+    @property
+    def nterms(self) -> int:
+        """Number of spline terms (1 for a plain structure)."""
+        return max(1, len(self.multipliers))
+
+    @property
+    def inputs(self) -> tuple:
+        """Every data column the model reads: the variables, then the multipliers that
+        are not variables (``'1'``, the constant, is no column)."""
+        extra = [m for m in self.multipliers if m != "1" and m not in self.variables]
+        return (*self.variables, *extra)
+
+    @property
+    def knots_of(self) -> dict:
+        """Interior breakpoints per variable (physical units), for those that have them."""
+        return dict(self.knots)
+
+    @property
+    def cells(self) -> tuple:
+        """Grid cells per variable at most: the resolution, or the number of intervals of
+        the breakpoints (fewer when some lie outside the data)."""
+        knots = self.knots_of
+        return tuple(len(knots[v]) + 1 if v in knots else k
+                     for v, k in zip(self.variables, self.resolution))
 
     @property
     def nsimplex_max(self) -> int:
         """Simplices of the full grid (before empty ones are dropped)."""
-        return math.factorial(self.ndim) * int(np.prod(self.resolution))
+        return math.factorial(self.ndim) * int(np.prod(self.cells))
 
     @property
     def nbasis(self) -> int:
-        """B-coefficients per simplex, ``d_hat = C(d + n, n)``."""
+        """B-coefficients per simplex and term, ``d_hat = C(d + n, n)``."""
         return math.comb(self.degree + self.ndim, self.ndim)
 
+    @property
+    def ncoef_per_simplex(self) -> int:
+        """B-coefficients per simplex over all terms, ``K d_hat``."""
+        return self.nterms * self.nbasis
+
     def label(self) -> str:
-        """Compact text, e.g. ``CZ(alpha:2, de, mach) S^1_3``."""
-        parts = [v if k == 1 else f"{v}:{k}" for v, k in zip(self.variables, self.resolution)]
-        return f"{self.coefficient}({', '.join(parts)}) S^{self.continuity}_{self.degree}"
+        """Compact text, e.g. ``CZ(alpha:2, de, mach) S^1_3`` or, varying-coefficient with
+        breakpoints, ``Cl(alpha@-5:20:5deg, beta | 1, phat, da) S^0_2``."""
+        knots = self.knots_of
+        parts = []
+        for v, k in zip(self.variables, self.resolution):
+            if v in knots:
+                parts.append(f"{v}@{format_knots(v, knots[v])}")
+            else:
+                parts.append(v if k == 1 else f"{v}:{k}")
+        text = ", ".join(parts)
+        if self.multipliers:
+            text += " | " + ", ".join(self.multipliers)
+        return f"{self.coefficient}({text}) S^{self.continuity}_{self.degree}"
 
     def with_(self, **changes) -> Structure:
         """A copy with some fields changed (validated)."""
         return replace(self, **changes)
 
     def to_dict(self) -> dict:
-        return {"coefficient": self.coefficient, "variables": list(self.variables),
-                "degree": self.degree, "continuity": self.continuity,
-                "resolution": list(self.resolution)}
+        out = {"coefficient": self.coefficient, "variables": list(self.variables),
+               "degree": self.degree, "continuity": self.continuity,
+               "resolution": list(self.resolution)}
+        if self.multipliers:
+            out["multipliers"] = list(self.multipliers)
+        if self.knots:
+            out["knots"] = {v: list(k) for v, k in self.knots}
+        return out
 
     @classmethod
     def from_dict(cls, data: Mapping, coefficient: str | None = None) -> Structure:
         """Build from a mapping with keys ``variables`` and optional ``degree``,
-        ``continuity``, ``resolution`` (an int applies to every variable)."""
-        allowed = {"coefficient", "variables", "degree", "continuity", "resolution"}
+        ``continuity``, ``resolution`` (an int applies to every variable),
+        ``multipliers`` (list of columns, ``'1'`` for the constant term) and ``knots``
+        (variable -> interior breakpoints, physical units)."""
+        allowed = {"coefficient", "variables", "degree", "continuity", "resolution",
+                   "multipliers", "knots"}
         coef = str(data.get("coefficient", coefficient))
         unknown = sorted(set(data) - allowed)
         if unknown:
@@ -143,8 +224,62 @@ class Structure:
         res = data.get("resolution", ())
         if isinstance(res, (int, np.integer)):
             res = (int(res),) * len(variables)
+        mult = data.get("multipliers", ())
+        if isinstance(mult, str):
+            mult = [m.strip() for m in mult.split(",") if m.strip()]
+        knots = data.get("knots", {})
+        if not isinstance(knots, Mapping):
+            raise InputError(f"structure of {coef}: 'knots' must map variables to lists of "
+                             f"breakpoints, got {knots!r}")
         return cls(coef, tuple(variables), int(data.get("degree", 3)),
-                   int(data.get("continuity", 1)), tuple(res))
+                   int(data.get("continuity", 1)), tuple(res), tuple(mult),
+                   tuple(knots.items()))
+
+
+def _is_angle(variable: str) -> bool:
+    return UNITS.get(variable) == "rad"
+
+
+def format_knots(variable: str, knots) -> str:
+    """Breakpoints as label text: ``START:STOP:STEP`` when equally spaced (3 or more),
+    else ``V1/V2/...``; angles in whole degrees get a ``deg`` suffix."""
+    vals = np.asarray(knots, dtype=float)
+    suffix = ""
+    if _is_angle(variable):
+        deg = np.degrees(vals)
+        if np.allclose(deg, np.round(deg, 3), rtol=0, atol=1e-9):
+            vals, suffix = np.round(deg, 3), "deg"
+
+    def f(v):
+        return f"{float(v):g}"
+
+    steps = np.diff(vals)
+    if len(vals) >= 3 and np.allclose(steps, steps[0], rtol=1e-9, atol=1e-12):
+        return f"{f(vals[0])}:{f(vals[-1])}:{f(steps[0])}{suffix}"
+    return "/".join(f(v) for v in vals) + suffix
+
+
+def parse_knots(variable: str, text: str) -> tuple:
+    """Inverse of :func:`format_knots`: ``'-10:25:5deg'`` or ``'0.6/0.8'`` -> radians or
+    physical values."""
+    spec = text.strip()
+    scale = 1.0
+    if spec.endswith("deg"):
+        spec, scale = spec[:-3], np.pi / 180.0
+    try:
+        if ":" in spec:
+            start, stop, step = (float(p) for p in spec.split(":"))
+            if not step > 0 or stop < start:
+                raise ValueError("STEP must be > 0 and STOP >= START")
+            n = int(np.floor((stop - start) / step + 1e-9)) + 1
+            vals = start + step * np.arange(n)
+        else:
+            vals = np.array([float(p) for p in spec.split("/") if p.strip()])
+    except ValueError as exc:
+        raise InputError(f"cannot read the breakpoints {text!r} of {variable!r} ({exc}); "
+                         "write START:STOP:STEP or V1/V2/..., optionally ending in 'deg'") \
+            from None
+    return tuple(float(v) for v in vals * scale)
 
 
 #: The paper's model structures (Section IV.E), all S^1_3, plus CY which the paper could
@@ -187,50 +322,133 @@ def structures_from_config(config: Mapping, base: Mapping | None = None) -> dict
 
 @dataclass(frozen=True)
 class Scaling:
-    """Affine map of physical variables to the unit box, ``u = (x - lower) / (upper - lower)``.
+    """Map of physical variables to the unit box, per variable: affine,
+    ``u = (x - lower) / (upper - lower)``, or piecewise linear through breakpoints
+    ``lower = k_0 < k_1 < ... < k_m = upper`` with ``u(k_i) = i / m``, so that a Kuhn grid
+    of m cells along that variable has its cell boundaries exactly at the breakpoints
+    (for models of table-based data with kinks there).
 
     Parameters
     ----------
     variables : tuple of str
     lower, upper : tuple of float
         The identification data's range per variable (physical units).
+    knots : tuple of tuple of float, optional
+        Per variable, all breakpoints including ``lower`` and ``upper``, or ``()`` for an
+        affine map.
     """
 
     variables: tuple
     lower: tuple
     upper: tuple
+    knots: tuple = ()
+
+    def __post_init__(self):
+        if not self.knots:
+            object.__setattr__(self, "knots", ((),) * len(self.variables))
 
     @classmethod
-    def from_data(cls, x: np.ndarray, variables: Sequence[str]) -> Scaling:
-        """The bounding box of ``x`` (N, n); raises if a variable does not vary."""
+    def from_data(cls, x: np.ndarray, variables: Sequence[str],
+                  knots: Mapping | None = None) -> Scaling:
+        """The bounding box of ``x`` (N, n); raises if a variable does not vary.
+
+        ``knots`` maps variables to interior breakpoints (physical units): those inside
+        the data range and not within a quarter of their spacing of its ends are used.
+        """
         x = np.asarray(x, dtype=float)
         lo, hi = x.min(axis=0), x.max(axis=0)
         flat = [v for v, a, b in zip(variables, lo, hi) if not b > a]
         if flat:
             raise InputError(f"variable(s) {flat} do not vary in the identification data: "
                              "remove them from the model structure")
-        return cls(tuple(variables), tuple(float(v) for v in lo), tuple(float(v) for v in hi))
+        full = []
+        for v, a, b in zip(variables, lo, hi):
+            ks = np.asarray((knots or {}).get(v, ()), dtype=float)
+            if len(ks) == 0:
+                full.append(())
+                continue
+            gap = np.median(np.diff(ks)) if len(ks) > 1 else (b - a)
+            inner = ks[(ks > a + 0.25 * gap) & (ks < b - 0.25 * gap)]
+            full.append((float(a), *(float(k) for k in inner), float(b)))
+        return cls(tuple(variables), tuple(float(v) for v in lo), tuple(float(v) for v in hi),
+                   tuple(full))
+
+    @property
+    def cells(self) -> tuple:
+        """Grid cells implied by the breakpoints per variable (None where affine)."""
+        return tuple(len(k) - 1 if k else None for k in self.knots)
 
     def transform(self, x: np.ndarray, *, clip: bool = False) -> np.ndarray:
         """Physical (N, n) -> unit box (N, n); ``clip`` clamps to [0, 1]."""
         lo, hi = np.asarray(self.lower), np.asarray(self.upper)
-        u = (np.asarray(x, dtype=float) - lo) / (hi - lo)
+        x = np.asarray(x, dtype=float)
+        u = (x - lo) / (hi - lo)
+        for i, ks in enumerate(self.knots):
+            if ks:
+                k = np.asarray(ks)
+                # np.interp is piecewise linear inside; beyond the ends continue linearly
+                # with the end cells' slopes
+                xi = x[..., i]
+                ui = np.interp(xi, k, np.linspace(0.0, 1.0, len(k)))
+                m = len(k) - 1
+                ui = np.where(xi < k[0], (xi - k[0]) / (m * (k[1] - k[0])), ui)
+                ui = np.where(xi > k[-1], 1.0 + (xi - k[-1]) / (m * (k[-1] - k[-2])), ui)
+                u[..., i] = ui
         return np.clip(u, 0.0, 1.0) if clip else u
 
     def inverse(self, u: np.ndarray) -> np.ndarray:
         """Unit box (N, n) -> physical (N, n)."""
         lo, hi = np.asarray(self.lower), np.asarray(self.upper)
-        return lo + np.asarray(u, dtype=float) * (hi - lo)
+        u = np.asarray(u, dtype=float)
+        x = lo + u * (hi - lo)
+        for i, ks in enumerate(self.knots):
+            if ks:
+                k = np.asarray(ks)
+                m = len(k) - 1
+                ui = u[..., i]
+                xi = np.interp(ui, np.linspace(0.0, 1.0, len(k)), k)
+                xi = np.where(ui < 0, k[0] + ui * m * (k[1] - k[0]), xi)
+                xi = np.where(ui > 1, k[-1] + (ui - 1) * m * (k[-1] - k[-2]), xi)
+                x[..., i] = xi
+        return x
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """``du/dx`` per variable at the points, shape (N, n) (constant where affine; the
+        slope of the cell holding the point where piecewise linear)."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        out = np.broadcast_to(1.0 / self.span, x.shape).copy()
+        for i, ks in enumerate(self.knots):
+            if ks:
+                k = np.asarray(ks)
+                m = len(k) - 1
+                cell = np.clip(np.searchsorted(k, x[:, i], side="right") - 1, 0, m - 1)
+                out[:, i] = 1.0 / (m * np.diff(k)[cell])
+        return out
 
     @property
     def span(self) -> np.ndarray:
         return np.asarray(self.upper) - np.asarray(self.lower)
 
+    @property
+    def affine(self) -> bool:
+        """True when no variable has breakpoints."""
+        return not any(self.knots)
+
+    def subset(self, variables: Sequence[str]) -> Scaling:
+        """The scaling of some of the variables."""
+        idx = [self.variables.index(v) for v in variables]
+        return Scaling(tuple(variables), tuple(self.lower[i] for i in idx),
+                       tuple(self.upper[i] for i in idx), tuple(self.knots[i] for i in idx))
+
     def to_dict(self) -> dict:
-        return {"variables": list(self.variables), "lower": list(self.lower),
-                "upper": list(self.upper)}
+        out = {"variables": list(self.variables), "lower": list(self.lower),
+               "upper": list(self.upper)}
+        if not self.affine:
+            out["knots"] = [list(k) for k in self.knots]
+        return out
 
     @classmethod
     def from_dict(cls, data: Mapping) -> Scaling:
+        knots = tuple(tuple(float(v) for v in k) for k in data.get("knots", ()))
         return cls(tuple(data["variables"]), tuple(float(v) for v in data["lower"]),
-                   tuple(float(v) for v in data["upper"]))
+                   tuple(float(v) for v in data["upper"]), knots)

@@ -1,0 +1,232 @@
+"""Varying-coefficient aerodynamic models with breakpoint-aligned grids: structures,
+labels, the piecewise-linear scaling, exact recovery of table-like truths with kinks,
+gradients, files, exports, selection moves and errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from simplexspline import InputError
+from simplexspline.aero.config import parse_structure
+from simplexspline.aero.export import generate_aero_c, lookup_table
+from simplexspline.aero.model import AeroModel
+from simplexspline.aero.selection import SelectionSettings, _neighbours, cv_score, fit_structure
+from simplexspline.aero.structure import Scaling, Structure, format_knots, parse_knots
+
+D2R = np.pi / 180.0
+#: table breakpoints of the synthetic "database" (like JSBSim's F-16: alpha every 5 deg)
+ALPHA_KNOTS = np.arange(-10, 35, 5) * D2R
+
+
+def table(x, knots, values):
+    """Piecewise-linear interpolation (a 1-D table with kinks at its breakpoints)."""
+    return np.interp(x, knots, values)
+
+
+def truth(df):
+    """Cl-like: a kinked function of alpha (and a Mach kink at 0.6) plus alpha-dependent
+    damping and control derivatives, as aerodynamic databases are built."""
+    a, b, mach = df["alpha"], df["beta"], df["mach"]
+    clb = table(a, ALPHA_KNOTS, [-0.02, 0.01, 0.03, 0.05, 0.02, 0.06, 0.04, 0.07, 0.05])
+    clb_m = table(mach, [0.2, 0.6, 0.8, 1.0], [0.0, 0.0, 0.19, 0.18])
+    clp = table(a, ALPHA_KNOTS, [-0.36, -0.36, -0.44, -0.42, -0.38, -0.37, -0.33, -0.29, -0.23])
+    clda = table(a, ALPHA_KNOTS, [0.04, 0.05, 0.05, 0.056, 0.05, 0.056, 0.082, 0.059, 0.042])
+    return -clb * b + clb_m * b + clp * df["phat"] + clda * df["da"]
+
+
+def campaign(n=40, samples=1000, seed=0, noise=2e-4):
+    rng = np.random.default_rng(seed)
+    t = np.arange(samples) * 0.01
+    parts = []
+    for m in range(n):
+        def wave(amp, centre=0.0):
+            f = rng.uniform(0.1, 1.0, 3)
+            ph = rng.uniform(0, 2 * np.pi, 3)
+            return centre + amp * np.sin(2 * np.pi * f[:, None] * t + ph[:, None]).sum(0) / 3
+
+        frame = pd.DataFrame({
+            "maneuver": m, "t": t, "maneuver_type": "sum-of-sines",
+            "alpha": np.clip(wave(0.2, rng.uniform(0.05, 0.2)), -0.1, 0.3),
+            "beta": wave(0.12), "mach": np.clip(wave(0.15, rng.uniform(0.4, 0.8)), 0.3, 0.9),
+            "phat": wave(0.05), "da": wave(0.2), "dr": wave(0.2)})
+        frame["true_Cl"] = truth(frame)
+        frame["Cl"] = frame["true_Cl"] + noise * rng.standard_normal(samples)
+        parts.append(frame)
+    return pd.concat(parts, ignore_index=True)
+
+
+LABEL = "Cl(alpha@-10:30:5deg, beta, mach@0.6/0.8 | 1, phat, da) S^0_2"
+
+
+@pytest.fixture(scope="module")
+def data():
+    return campaign()
+
+
+@pytest.fixture(scope="module")
+def model(data):
+    s = parse_structure(LABEL)
+    cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
+    return fit_structure(s, cols, data["Cl"].to_numpy(), smoothing="gcv")
+
+
+# --------------------------------------------------------------------------- structures
+def test_label_round_trip_and_sizes():
+    s = parse_structure(LABEL)
+    assert s.varying and s.multipliers == ("1", "phat", "da")
+    assert s.inputs == ("alpha", "beta", "mach", "phat", "da")
+    np.testing.assert_allclose(s.knots_of["alpha"], np.arange(-10, 35, 5) * D2R)
+    assert s.knots_of["mach"] == (0.6, 0.8)
+    assert s.label() == LABEL
+    assert parse_structure(s.label()) == s
+    assert Structure.from_dict(s.to_dict()) == s
+    assert s.nterms == 3 and s.ncoef_per_simplex == 3 * 10
+    assert s.cells == (10, 1, 3)
+
+
+def test_knot_text():
+    assert format_knots("mach", (0.6, 0.8)) == "0.6/0.8"
+    assert format_knots("alpha", np.arange(-10, 15, 5) * D2R) == "-10:10:5deg"
+    assert format_knots("alpha", (0.1, 0.3)) == "0.1/0.3"
+    assert parse_knots("alpha", "-5/0/2.5deg") == pytest.approx((-5 * D2R, 0.0, 2.5 * D2R))
+    with pytest.raises(InputError, match="breakpoints"):
+        parse_knots("mach", "0.6:x:0.1")
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"multipliers": ("1", "1")}, "repeated or empty multiplier"),
+    ({"knots": (("qhat", (0.1,)),)}, "not one of the variables"),
+    ({"knots": (("alpha", (0.2, 0.1)),)}, "strictly increasing"),
+    ({"knots": (("alpha", ("a",)),)}, "must be numbers"),
+])
+def test_bad_structures(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        Structure("Cl", ("alpha", "beta"), 2, 0, **kwargs)
+
+
+def test_parse_errors():
+    with pytest.raises(InputError, match="no multipliers"):
+        parse_structure("Cl(alpha | ) S^0_2")
+
+
+# --------------------------------------------------------------------------- scaling
+def test_piecewise_linear_scaling():
+    rng = np.random.default_rng(1)
+    x = np.column_stack([rng.uniform(-0.12, 0.41, 500), rng.uniform(0.3, 0.9, 500)])
+    sc = Scaling.from_data(x, ("alpha", "mach"), {"alpha": ALPHA_KNOTS, "mach": (0.6, 0.8)})
+    # interior breakpoints inside the data (and not within a quarter spacing of its ends)
+    assert sc.cells == (7, 3)          # alpha knots -5..20 deg inside -6.9..23.5 deg
+    k = np.asarray(sc.knots[0])
+    np.testing.assert_allclose(sc.transform(np.column_stack([k, np.full_like(k, 0.6)]))[:, 0],
+                               np.linspace(0, 1, len(k)), atol=1e-15)
+    u = sc.transform(x)
+    assert u.min() >= 0 and u.max() <= 1
+    np.testing.assert_allclose(sc.inverse(u), x, atol=1e-15)
+    far = np.array([[-0.5, 0.1], [0.7, 1.4]])             # linear continuation outside
+    np.testing.assert_allclose(sc.inverse(sc.transform(far)), far, atol=1e-14)
+    h = 1e-7
+    fd = (sc.transform(x[:20] + h) - sc.transform(x[:20] - h)) / (2 * h)
+    np.testing.assert_allclose(sc.jacobian(x[:20]), fd, rtol=1e-6)
+    assert Scaling.from_dict(sc.to_dict()) == sc
+    assert not sc.affine and Scaling.from_data(x, ("alpha", "mach")).affine
+
+
+# --------------------------------------------------------------------------- fitting
+def test_recovers_a_kinked_table_truth_below_the_noise_level(data, model):
+    """Breakpoint-aligned S^0_2 terms contain the truth exactly: on new maneuvers the error
+    against it is well below the measurement noise (2e-4); the membrane penalty (weight by
+    GCV) keeps the thinly covered simplices in check."""
+    test = campaign(n=8, seed=9)
+    err = model.predict(test) - test["true_Cl"].to_numpy()
+    assert np.sqrt(np.mean(err ** 2)) < 1e-4
+    reg = model.spline.info.regularization
+    assert reg.penalty == "membrane" and reg.lam > 0
+    assert model.provenance["smoothing"]["relative_weight"] == reg.smoothing
+    sid = model.locate(test)
+    counts = np.asarray(model.provenance["counts"])
+    well = np.where(sid >= 0, counts[np.maximum(sid, 0)], 0) >= 150
+    assert well.mean() > 0.8 and np.sqrt(np.mean(err[well] ** 2)) < 4e-5
+    # without the penalty the thin simplices spoil it
+    cols = {c: data[c].to_numpy() for c in model.variables}
+    raw = fit_structure(model.structure, cols, data["Cl"].to_numpy())
+    err_raw = raw.predict(test) - test["true_Cl"].to_numpy()
+    assert np.sqrt(np.mean(err_raw ** 2)) > 5 * np.sqrt(np.mean(err ** 2))
+    # a plain spline over the same variables cannot follow the kinks and the products
+    plain = fit_structure(Structure("Cl", ("alpha", "beta", "mach", "phat", "da"), 3, 1),
+                          {c: data[c].to_numpy() for c in model.variables},
+                          data["Cl"].to_numpy())
+    err_plain = plain.predict(test) - test["true_Cl"].to_numpy()
+    assert np.sqrt(np.mean(err_plain ** 2)) > 10 * np.sqrt(np.mean(err ** 2))
+
+
+def test_gradient_is_exact_in_physical_units(model, data):
+    x = data[list(model.variables)].to_numpy()[::997]
+    g = model.gradient(x)
+    h = 1e-7
+    for i in range(x.shape[1]):
+        e = np.zeros(x.shape[1])
+        e[i] = h
+        fd = (model.predict(x + e, outside="extrapolate")
+              - model.predict(x - e, outside="extrapolate")) / (2 * h)
+        np.testing.assert_allclose(g[:, i], fd, rtol=1e-5, atol=1e-7)
+    # the multiplier derivatives are the terms: Cl_da = clda(alpha) at these points
+    ida = model.variables.index("da")
+    clda = table(x[:, 0], ALPHA_KNOTS, [0.04, 0.05, 0.05, 0.056, 0.05, 0.056, 0.082, 0.059,
+                                        0.042])
+    np.testing.assert_allclose(g[:, ida], clda, atol=2e-3)
+
+
+@pytest.mark.parametrize("suffix", [".json", ".npz"])
+def test_model_files_round_trip(model, data, tmp_path, suffix):
+    path = model.save(tmp_path / f"cl{suffix}")
+    back = AeroModel.load(path)
+    assert back.structure == model.structure and back.scaling == model.scaling
+    assert back.multiplier_scale == model.multiplier_scale
+    np.testing.assert_array_equal(back.predict(data.iloc[:300]), model.predict(data.iloc[:300]))
+
+
+def test_exports(model):
+    with pytest.raises(InputError, match="lookup table"):
+        generate_aero_c(model)
+    lut = lookup_table(model, {"alpha": np.linspace(-0.1, 0.4, 11), "beta": [0.05],
+                               "mach": [0.5, 0.7], "phat": [0.0, 0.01], "da": [0.1]})
+    assert lut.values.shape == (11, 1, 2, 2, 1)
+    grid = np.stack(np.meshgrid(np.linspace(-0.1, 0.4, 11), [0.05], [0.5, 0.7], [0.0, 0.01],
+                                [0.1], indexing="ij"), axis=-1).reshape(-1, 5)
+    np.testing.assert_allclose(lut.values.ravel(), model.predict(grid), atol=1e-15)
+
+
+def test_statistics_are_refused_for_varying_models(model, data):
+    with pytest.raises(InputError, match="varying-coefficient"):
+        model.standard_error(data.iloc[:3])
+
+
+# --------------------------------------------------------------------------- selection
+def test_selection_moves_change_multipliers_not_breakpoints():
+    s = parse_structure(LABEL)
+    moves = dict(_neighbours(s, SelectionSettings(), ["alpha", "beta", "mach", "phat", "da",
+                                                      "dr"]))
+    assert "add multiplier dr" in moves and "remove multiplier phat" in moves
+    assert not any(m.startswith(("refine alpha", "refine mach", "add dr")) for m in moves)
+    assert "refine beta (1->2 cells)" in moves
+
+
+def test_cross_validation_prefers_the_true_multipliers(data):
+    cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
+    folds = data["maneuver"].to_numpy() % 3
+    y = data["Cl"].to_numpy()
+    good = cv_score(parse_structure(LABEL), cols, y, folds)[0]
+    missing = cv_score(parse_structure(LABEL.replace(", da)", ")")), cols, y, folds)[0]
+    extra = cv_score(parse_structure(LABEL.replace("da)", "da, dr)")), cols, y, folds)[0]
+    assert good < 0.1 * missing
+    assert good <= extra * 1.05
+
+
+def test_multiplier_without_variation_is_an_error(data):
+    cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
+    cols["gear"] = np.zeros(len(data))
+    with pytest.raises(InputError, match="gear"):
+        fit_structure(parse_structure("Cl(alpha | 1, gear) S^0_2"), cols,
+                      data["Cl"].to_numpy())
