@@ -615,7 +615,8 @@ class SimplexSplineRegressor(*_Bases):
                 data["grid_lower"] = lo + data["grid_lower"] * span
                 data["grid_upper"] = lo + data["grid_upper"] * span
             tri = Triangulation.from_arrays(data, check=False)
-        meta = {**spline.metadata, "coordinates": "input"}
+        meta = {**spline.metadata, "coordinates": "input",
+                "variables": list(spline.metadata.get("features", []))}
         return SimplexSpline(tri, spline.degree, spline.continuity, spline.coefficients,
                              info=spline.info, metadata=meta)
 

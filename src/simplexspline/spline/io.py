@@ -5,12 +5,16 @@ A model file holds one :class:`~simplexspline.SimplexSpline`:
 JSON (``.json``)::
 
     {"format": "simplexspline.model", "version": 1,
-     "degree": d, "continuity": r, "ndim": n, "nbasis": d_hat,
-     "triangulation": {"kind": ..., "vertices": [[...]], "simplices": [[...]],
-                       "grid": {"lower": [...], "upper": [...], "shape": [...],
-                                "table": [...]}},   # grid/fit triangulations only
+     "degree": d, "continuity": r, "ndim": n, "nbasis": d_hat, "nsimplex": J,
+     "triangulation_kind": "explicit" | "delaunay" | "grid" | "fit",
+     "triangulation": {"vertices": [[...]], "simplices": [[...]],
+                       "grid_lower": [...], "grid_upper": [...],     # grid/fit only
+                       "grid_shape": [...], "grid_table": [...]},
      "coefficients": [[...]],                          # (J, d_hat), Eq. 11 order
      "metadata": {...}}
+
+Varying-coefficient splines use ``"format": "simplexspline.varying-model"``, a header key
+``"nterms": K`` and coefficients of shape (J, K, d_hat). See docs/model-format.md.
 
 Floats are written with Python's shortest round-trip representation, so a loaded model
 predicts bit for bit what the saved one did.
@@ -22,7 +26,8 @@ plus ``header``, a unicode scalar holding the JSON above without the arrays. Loa
 Optional section ``"statistics"`` (still format version 1; files without it load as
 before): what confidence bounds need (:mod:`simplexspline.spline.statistics`), with its own
 ``format``/``version``; the packed Gram blocks and point counts are in it (JSON) or in the
-arrays ``statistics_gram`` and ``statistics_counts`` (npz).
+arrays ``statistics_gram``, ``statistics_counts`` and (penalised fits)
+``statistics_penalty`` (npz).
 
 Both are written atomically: to a temporary file in the target directory, then renamed.
 """
