@@ -230,3 +230,66 @@ def test_multiplier_without_variation_is_an_error(data):
     with pytest.raises(InputError, match="gear"):
         fit_structure(parse_structure("Cl(alpha | 1, gear) S^0_2"), cols,
                       data["Cl"].to_numpy())
+
+
+# --------------------------------------------------------------------------- products
+def test_product_multipliers_and_their_gradient():
+    rng = np.random.default_rng(4)
+    n = 20000
+    df = pd.DataFrame({"alpha": rng.uniform(-0.1, 0.3, n), "beta": rng.uniform(-0.1, 0.1, n),
+                       "qhat": rng.uniform(-0.01, 0.01, n), "flap": rng.choice([0.0, 0.26], n)})
+    truth = (np.sin(3 * df.alpha) - 2.0 * df.alpha * df.beta ** 2 + 30 * df.qhat * df.flap
+             * (1 + df.alpha))
+    s = parse_structure("CX(alpha:2 | 1, beta*beta, qhat*flap) S^1_3")
+    assert s.inputs == ("alpha", "beta", "qhat", "flap")
+    model = fit_structure(s, {c: df[c].to_numpy() for c in df.columns}, truth.to_numpy(),
+                          prior=None)
+    np.testing.assert_allclose(model.predict(df), truth, atol=2e-4)
+    x = df[list(model.variables)].to_numpy()[:50]
+    g = model.gradient(x)
+    a, b, q, f = x.T
+    want = np.column_stack([3 * np.cos(3 * a) - 2 * b ** 2 + 30 * q * f,
+                            -4 * a * b, 30 * f * (1 + a), 30 * q * (1 + a)])
+    np.testing.assert_allclose(g[:, 1:], want[:, 1:], atol=2e-3)   # the product rule
+    np.testing.assert_allclose(g[:, 0], want[:, 0], atol=1e-2)     # cubic pieces vs sin
+    h = 1e-6
+    for i in range(4):
+        e = np.zeros(4)
+        e[i] = h
+        fd = (model.predict(x + e, outside="extrapolate")
+              - model.predict(x - e, outside="extrapolate")) / (2 * h)
+        np.testing.assert_allclose(g[:, i], fd, rtol=1e-6, atol=1e-6)
+
+
+# --------------------------------------------------------------------------- prior
+def test_coarse_prior_stops_divergence_where_data_are_thin():
+    """Remove almost all samples above alpha = 0.2: without the prior the fine model's
+    simplices there diverge; shrunk towards the coarse model they follow it."""
+    data = campaign()
+    keep = (data["alpha"] < 0.2) | (np.arange(len(data)) % 200 == 0)
+    thin = data[keep]
+    cols = {c: thin[c].to_numpy() for c in thin.columns if c != "maneuver_type"}
+    s = parse_structure(LABEL)
+    test = campaign(n=8, seed=9)
+    region = test["alpha"].to_numpy() > 0.2
+    errs = {}
+    for prior in (None, "auto"):
+        m = fit_structure(s, cols, thin["Cl"].to_numpy(), prior=prior)
+        e = m.predict(test) - test["true_Cl"].to_numpy()
+        errs[prior] = (np.sqrt(np.mean(e[region] ** 2)), np.sqrt(np.mean(e[~region] ** 2)))
+    assert m.provenance["prior"]["structure"] == \
+        "Cl(alpha, beta, mach | 1, phat, da) S^1_3"
+    assert errs["auto"][0] < 0.2 * errs[None][0]          # thin region: far better
+    assert errs["auto"][1] < 1.5 * errs[None][1] + 2e-5   # dense region: unharmed
+
+
+def test_prior_in_cross_validation_and_errors(data):
+    cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
+    folds = data["maneuver"].to_numpy() % 3
+    y = data["Cl"].to_numpy()
+    with_prior = cv_score(parse_structure(LABEL), cols, y, folds, prior="auto")[0]
+    without = cv_score(parse_structure(LABEL), cols, y, folds, prior=None)[0]
+    # held-out maneuvers reach where the other folds' data are thin: the prior helps
+    assert np.isfinite(with_prior) and with_prior < 0.7 * without
+    with pytest.raises(InputError, match="prior must be"):
+        fit_structure(parse_structure(LABEL), cols, y, prior="fine")

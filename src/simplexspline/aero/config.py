@@ -4,6 +4,8 @@ A config file (all tables and keys optional)::
 
     [identify]
     coefficients = ["CX", "CY", "CZ", "Cl", "Cm", "Cn"]
+    preset = "paper"           # starting structures: 'paper' | 'varying' | 'f16'
+
     validation_fraction = 0.25
     seed = 0
     select = true              # automatic structure selection from the structures below
@@ -22,6 +24,7 @@ A config file (all tables and keys optional)::
     max_samples = 150000
     min_points = 10
     moves = ["degree", "resolution", "variables"]
+    smoothing = "auto"         # 'auto' | 'gcv' | a relative weight (omit: 'auto')
 
     [models.CZ]                # starting (or fixed, with select = false) structure
     variables = ["alpha", "de", "mach", "qhat"]
@@ -153,7 +156,7 @@ def settings_from_config(config: Mapping,
         raise InputError(f"[selection]: {exc}") from None
     structures = dict(base.structures or {})
     if "models" in config:
-        structures.update(structures_from_config(config["models"], base=structures or None))
+        structures.update(structures_from_config(config["models"], base=structures))
     return replace(base, **ident, selection=selection, structures=structures or None)
 
 

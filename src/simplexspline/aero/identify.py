@@ -62,8 +62,11 @@ class IdentificationSettings:
     ----------
     coefficients : tuple of str
         Coefficients to model (default all six, CX..Cn).
+    preset : {'paper', 'varying', 'f16'}
+        Where the starting structures come from (see
+        :func:`~simplexspline.aero.structure.preset`).
     structures : dict of str to Structure, optional
-        Starting (or fixed) structure per coefficient; default the paper's preset.
+        Starting (or fixed) structures overriding the preset's.
     select : bool
         Run the automatic structure selection from the starting structures.
     selection : SelectionSettings
@@ -83,6 +86,7 @@ class IdentificationSettings:
     """
 
     coefficients: tuple = COEFFICIENTS
+    preset: str = "paper"
     structures: Mapping | None = None
     select: bool = True
     selection: SelectionSettings = field(default_factory=SelectionSettings)
@@ -100,19 +104,20 @@ class IdentificationSettings:
         if self.reconstruct not in ("auto", "always", "never"):
             raise InputError("reconstruct must be 'auto', 'always' or 'never', got "
                              f"{self.reconstruct!r}")
+        preset(self.preset)  # validates the name
         if not 0.0 < self.validation_fraction < 1.0:
             raise InputError("validation_fraction must be in (0, 1), got "
                              f"{self.validation_fraction!r}")
 
     def starting_structures(self) -> dict:
-        base = preset()
+        base = preset(self.preset)
         if self.structures:
             base.update(self.structures)
         return {c: base[c] for c in self.coefficients}
 
     def to_dict(self) -> dict:
         return {
-            "coefficients": list(self.coefficients),
+            "coefficients": list(self.coefficients), "preset": self.preset,
             "structures": {c: s.to_dict() for c, s in self.starting_structures().items()},
             "select": self.select, "selection": self.selection.to_dict(),
             "validation_fraction": self.validation_fraction, "seed": self.seed,
@@ -457,6 +462,8 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     model = fit_structure(best, columns, y, min_points=settings.selection.min_points,
                           ridge=settings.selection.ridge,
                           smoothing=settings.selection.smoothing,
+                          prior=settings.selection.prior,
+                          prior_weight=settings.selection.prior_weight,
                           provenance={"coefficient": c, **({"source": source}
                                                             if source else {})})
     pred_v = model.predict(valid)

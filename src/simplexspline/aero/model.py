@@ -17,7 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from simplexspline.aero.structure import UNITS, Scaling, Structure
+from simplexspline.aero.structure import (
+    UNITS,
+    Scaling,
+    Structure,
+    multiplier_jacobian,
+    multiplier_values,
+)
 from simplexspline.errors import InputError, ModelFileError
 from simplexspline.spline.spline import SimplexSpline
 from simplexspline.spline.varying import VaryingCoefficientSpline
@@ -127,11 +133,7 @@ class AeroModel:
         z = self.schedule_scaling.transform(x[:, :n])
         if not self.varying:
             return z, None
-        cols = []
-        for name, scale in zip(self.structure.multipliers, self.multiplier_scale):
-            col = np.ones(len(x)) if name == "1" else x[:, self.variables.index(name)]
-            cols.append(col / scale)
-        return z, np.column_stack(cols)
+        return z, multiplier_values(self.structure, x) / np.asarray(self.multiplier_scale)
 
     def predict(self, data, *, outside: str = "clamp") -> np.ndarray:
         """Evaluate the coefficient.
@@ -174,11 +176,8 @@ class AeroModel:
             return out
         gz, gm = self.spline.gradient(z, m, outside=policy)
         out[:, :n] = gz * jac
-        for k, (name, scale) in enumerate(zip(self.structure.multipliers,
-                                               self.multiplier_scale)):
-            if name != "1":
-                out[:, self.variables.index(name)] += gm[:, k] / scale
-        return out
+        dm = multiplier_jacobian(self.structure, x) / np.asarray(self.multiplier_scale)[:, None]
+        return out + np.einsum("nk,nki->ni", gm, dm)
 
     def locate(self, data) -> np.ndarray:
         """The simplex of each input (-1 outside the kept simplices), shape (N,)."""

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from simplexspline.aero.model import AeroModel
-from simplexspline.aero.structure import Scaling, Structure
+from simplexspline.aero.prior import PRIOR_WEIGHT, coarse_structure, virtual_samples
+from simplexspline.aero.structure import Scaling, Structure, multiplier_values
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.space import SplineSpace
 from simplexspline.spline.triangulation import Triangulation
@@ -64,11 +65,19 @@ class SelectionSettings:
     max_samples : int
         The search uses at most this many identification samples (every k-th sample, so
         all maneuvers stay); the final fit uses all of them.
-    smoothing : None, 'gcv' or float
+    smoothing : 'auto', None, 'gcv' or float
         Smoothness-energy regularisation of every fit (weight by GCV, or a fixed relative
         weight; see docs/regularization.md): the thin-plate energy, or for C^0 structures
         the membrane energy (squared gradients; the thin-plate energy does not see kinks
-        across facets). None: only the tiny ridge.
+        across facets). None (default): only the tiny ridge. 'auto': GCV for
+        varying-coefficient structures, none for plain ones.
+    prior : 'auto', 'coarse' or None
+        Shrink thinly covered simplices towards a coarse model of the same variables
+        (:mod:`simplexspline.aero.prior`): 'auto' (default) for varying-coefficient
+        structures (many coefficients per simplex), 'coarse' for every structure, None
+        never.
+    prior_weight : float
+        Weight of each virtual sample of the coarse model, relative to a real sample.
     """
 
     candidates: tuple = ("alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr")
@@ -85,6 +94,8 @@ class SelectionSettings:
     moves: tuple = ("degree", "resolution", "variables")
     ridge: float = 1e-8
     smoothing: object = None
+    prior: object = "auto"
+    prior_weight: float = PRIOR_WEIGHT
 
     def to_dict(self) -> dict:
         return {k: (list(v) if isinstance(v, tuple) else v)
@@ -148,20 +159,20 @@ def _space(structure: Structure, x: np.ndarray, min_points: int):
     u = scaling.subset(structure.variables).transform(x[:, :n])
     res = tuple(c if c is not None else r
                 for c, r in zip(scaling.cells[:n], structure.resolution))
-    tri = Triangulation.fit(u, res, min_points=min_points)
+    if min_points > 0:
+        tri = Triangulation.fit(u, res, min_points=min_points)
+    else:  # the whole grid, empty simplices included (a prior must determine them)
+        tri = Triangulation.grid(np.zeros(n), np.ones(n), res)
     space = SplineSpace(tri, structure.degree, structure.continuity)
     if not structure.varying:
         return scaling, u, None, (), space
-    cols, scales = [], []
-    for name in structure.multipliers:
-        col = np.ones(len(x)) if name == "1" else x[:, structure.inputs.index(name)]
-        scale = 1.0 if name == "1" else float(np.sqrt(np.mean(col ** 2)))
-        if not scale > 0:
-            raise InputError(f"multiplier {name!r} of {structure.coefficient} is zero "
-                             "throughout the identification data: remove it")
-        cols.append(col / scale)
-        scales.append(scale)
-    return (scaling, u, np.column_stack(cols), tuple(scales),
+    m = multiplier_values(structure, x)
+    scales = np.sqrt(np.mean(m ** 2, axis=0))
+    zero = [name for name, sc in zip(structure.multipliers, scales) if not sc > 0]
+    if zero:
+        raise InputError(f"multiplier(s) {zero} of {structure.coefficient} are zero "
+                         "throughout the identification data: remove them")
+    return (scaling, u, m / scales, tuple(float(v) for v in scales),
             VaryingCoefficientSpace(space, structure.nterms))
 
 
@@ -177,9 +188,28 @@ def _predict(spline, u, m, outside: str = "extrapolate"):
         spline.predict(u, m, outside=outside)
 
 
+def _use_prior(structure: Structure, prior) -> bool:
+    if prior is None:
+        return False
+    if prior == "auto":
+        return structure.varying
+    if prior == "coarse":
+        return True
+    raise InputError(f"prior must be 'auto', 'coarse' or None, got {prior!r}")
+
+
+def _prior_equations(structure, space, scaling, mscale, coarse, weight: float):
+    """Normal equations of the coarse model's virtual samples (see
+    :mod:`simplexspline.aero.prior`), each with ``weight``."""
+    z, m, yv = virtual_samples(structure, space.triangulation,
+                               scaling.subset(structure.variables), mscale, coarse)
+    return _accumulate(space, z, m, yv, np.full(len(yv), weight))
+
+
 def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
                   weights: np.ndarray | None = None, min_points: int = 10,
-                  ridge: float = 1e-8, smoothing=None,
+                  ridge: float = 1e-8, smoothing=None, prior=None,
+                  prior_weight: float = PRIOR_WEIGHT,
                   provenance: dict | None = None) -> AeroModel:
     """Fit one coefficient model of the given structure on all the given samples.
 
@@ -192,13 +222,20 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
         The coefficient.
     weights : ndarray, shape (N,), optional
     min_points : int
-        Simplices with fewer samples are dropped (points there use the nearest simplex).
+        Simplices with fewer samples are dropped (points there use the nearest simplex);
+        with a prior the whole grid is kept (the prior determines empty simplices).
     ridge : float
         Relative ridge weight (see :class:`SelectionSettings`); 0 takes the minimum-norm
         solution in undetermined directions.
-    smoothing : 'gcv' or float, optional
+    smoothing : 'auto', 'gcv' or float, optional
         Smoothness-energy regularisation (:meth:`SplineSpace.fit`; membrane energy for
-        C^0 structures, thin-plate energy otherwise); None: none.
+        C^0 structures, thin-plate energy otherwise); None: none; 'auto': GCV for
+        varying-coefficient structures only.
+    prior : {'auto', 'coarse'} or None
+        Shrink towards a coarse model (:mod:`simplexspline.aero.prior`): 'coarse' always,
+        'auto' for varying-coefficient structures; None: never.
+    prior_weight : float
+        Weight of a virtual sample relative to the mean weight of the real ones.
 
     Returns
     -------
@@ -206,13 +243,24 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
         ``provenance['counts']`` lists the samples per simplex.
     """
     x = _matrix(columns, structure.inputs)
-    scaling, u, m, mscale, space = _space(structure, x, min_points)
+    y = np.asarray(y, dtype=float)
+    use_prior = _use_prior(structure, prior)
+    # with a prior, keep the whole grid: the prior determines simplices without data
+    scaling, u, m, mscale, space = _space(structure, x, 0 if use_prior else min_points)
     keep = space.triangulation.locate(u) >= 0
-    ne = _accumulate(space, u[keep], None if m is None else m[keep],
-                     np.asarray(y, dtype=float)[keep],
-                     None if weights is None else np.asarray(weights)[keep])
-    spline = _solve(space, ne, ridge, smoothing)
+    w = None if weights is None else np.asarray(weights, dtype=float)
+    ne = _accumulate(space, u[keep], None if m is None else m[keep], y[keep],
+                     None if w is None else w[keep])
     prov = dict(provenance or {})
+    if use_prior:
+        cs = coarse_structure(structure)
+        coarse = fit_structure(cs, columns, y, weights=w, min_points=min_points,
+                               ridge=ridge)
+        wbar = 1.0 if w is None else float(np.mean(w[keep]))
+        ne.merge(_prior_equations(structure, space, scaling, mscale, coarse,
+                                  prior_weight * wbar))
+        prov["prior"] = {"structure": cs.label(), "weight": prior_weight}
+    spline = _solve(space, ne, ridge, smoothing)
     prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
                 counts=ne.counts.tolist(), nbasis=structure.nbasis,
                 nsimplex=space.triangulation.nsimplex,
@@ -222,6 +270,30 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
         prov["smoothing"] = {"penalty": reg.penalty, "relative_weight": reg.smoothing,
                              "edf": reg.edf}
     return AeroModel(structure, scaling, spline, prov, mscale)
+
+
+def _fold_equations(space, u, m, y, folds, k):
+    """Normal equations of all located samples and of each fold's."""
+    sid = space.triangulation.locate(u)
+    parts = []
+    for f in range(k):
+        sel = (folds == f) & (sid >= 0)
+        parts.append(_accumulate(space, u[sel], None if m is None else m[sel], y[sel]))
+    total = parts[0].copy()
+    for p in parts[1:]:
+        total.merge(p)
+    return total, parts
+
+
+def _minus(total, part):
+    """The normal equations of ``total`` without ``part``'s samples."""
+    out = total.copy()
+    out.XtWX -= part.XtWX
+    out.XtWy -= part.XtWy
+    out.ytWy -= part.ytWy
+    out.wsum -= part.wsum
+    out.counts -= part.counts
+    return out
 
 
 def _penalty(space) -> str:
@@ -237,6 +309,8 @@ def _continuity(space) -> int:
 
 
 def _solve(space, ne, ridge: float, smoothing=None):
+    if isinstance(smoothing, str) and smoothing == "auto":
+        smoothing = "gcv" if isinstance(space, VaryingCoefficientSpace) else None
     kw = {} if smoothing is None else {"smoothing": smoothing, "penalty": _penalty(space)}
     if ridge > 0:
         return space.solve(ne, on_insufficient="ridge", ridge=ridge, **kw)
@@ -244,8 +318,8 @@ def _solve(space, ne, ridge: float, smoothing=None):
 
 
 def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray, *,
-             min_points: int = 10, ridge: float = 1e-8,
-             smoothing=None) -> tuple[float, int, int]:
+             min_points: int = 10, ridge: float = 1e-8, smoothing=None, prior=None,
+             prior_weight: float = PRIOR_WEIGHT) -> tuple[float, int, int]:
     """k-fold cross-validation RMS (folds = whole maneuvers).
 
     Returns
@@ -256,25 +330,23 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
     """
     x = _matrix(columns, structure.inputs)
     y = np.asarray(y, dtype=float)
-    _scaling, u, m, _mscale, space = _space(structure, x, min_points)
+    use_prior = _use_prior(structure, prior)
+    scaling, u, m, mscale, space = _space(structure, x, 0 if use_prior else min_points)
     tri = space.triangulation
-    sid = tri.locate(u)
     k = int(folds.max()) + 1
-    parts = []
-    for f in range(k):
-        sel = (folds == f) & (sid >= 0)
-        parts.append(_accumulate(space, u[sel], None if m is None else m[sel], y[sel]))
-    total = parts[0].copy()
-    for p in parts[1:]:
-        total.merge(p)
+    total, parts = _fold_equations(space, u, m, y, folds, k)
+    if use_prior:
+        cs = coarse_structure(structure)
+        c_scaling, cu, cm, c_mscale, c_space = _space(cs, x, min_points)
+        c_total, c_parts = _fold_equations(c_space, cu, cm, y, folds, k)
     sse = 0.0
     for f in range(k):
-        train = total.copy()
-        train.XtWX -= parts[f].XtWX
-        train.XtWy -= parts[f].XtWy
-        train.ytWy -= parts[f].ytWy
-        train.wsum -= parts[f].wsum
-        train.counts -= parts[f].counts
+        train = _minus(total, parts[f])
+        if use_prior:
+            c_spline = _solve(c_space, _minus(c_total, c_parts[f]), ridge)
+            coarse = AeroModel(cs, c_scaling, c_spline, {}, c_mscale)
+            train.merge(_prior_equations(structure, space, scaling, mscale, coarse,
+                                         prior_weight))
         spline = _solve(space, train, ridge, smoothing)
         held = folds == f
         pred = _predict(spline, u[held], None if m is None else m[held])
@@ -310,7 +382,7 @@ def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[s
         # varying-coefficient structures keep their scheduling variables; the moves add
         # or remove multipliers
         for v in settings.candidates:
-            if v in available and v not in s.multipliers:
+            if v in available and v not in s.multipliers and v not in s.variables:
                 out.append((f"add multiplier {v}", s.with_(multipliers=(*s.multipliers, v))))
         if len(s.multipliers) > 1:
             for v in s.multipliers:
@@ -341,8 +413,8 @@ def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[s
     return out
 
 
-def _size(s: Structure) -> int:
-    return s.nsimplex_max * s.ncoef_per_simplex
+def _size(s: Structure, ranges: Mapping | None = None) -> int:
+    return s.size(ranges)
 
 
 def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
@@ -390,6 +462,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                          "(--no-select)")
     folds = fold_by_maneuver(mans, k, seed=seed)
     available = [v for v in cols if np.ptp(np.asarray(cols[v], dtype=float)) > 0]
+    ranges = {v: (float(np.min(cols[v])), float(np.max(cols[v]))) for v in available}
     budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
     seen: dict = {}
     history: list = []
@@ -403,7 +476,8 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         try:
             trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
                 s, cols, ys, folds, min_points=settings.min_points, ridge=settings.ridge,
-                smoothing=settings.smoothing)
+                smoothing=settings.smoothing, prior=settings.prior,
+                prior_weight=settings.prior_weight)
         except SimplexSplineError as exc:
             trial.error = str(exc)[:300]
         trial.seconds = time.perf_counter() - t0
@@ -415,10 +489,10 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
 
     score.history = history
     with single_threaded_blas():
-        return _search(start, settings, available, budget, score)
+        return _search(start, settings, available, budget, score, ranges)
 
 
-def _search(start, settings, available, budget, score):
+def _search(start, settings, available, budget, score, ranges=None):
     best = start
     best_score = score(start, 0, "start")
     history = score.history
@@ -428,7 +502,7 @@ def _search(start, settings, available, budget, score):
     history[-1].accepted = True
     for rnd in range(1, settings.max_rounds + 1):
         moves = [(m, s) for m, s in _neighbours(best, settings, available)
-                 if _size(s) <= budget]
+                 if _size(s, ranges) <= budget]
         if not moves:
             break
         results = [(score(s, rnd, m), m, s) for m, s in moves]

@@ -24,10 +24,14 @@ __all__ = [
     "CANDIDATE_VARIABLES",
     "COEFFICIENTS",
     "PAPER_PRESET",
+    "PRESETS",
     "UNITS",
     "Scaling",
     "Structure",
     "format_knots",
+    "multiplier_factors",
+    "multiplier_jacobian",
+    "multiplier_values",
     "parse_knots",
     "preset",
     "structures_from_config",
@@ -84,8 +88,8 @@ class Structure:
         if len(set(variables)) != len(variables):
             raise InputError(f"structure of {self.coefficient}: repeated variable in "
                              f"{list(variables)}")
-        mult = tuple(str(m).strip() for m in self.multipliers)
-        if len(set(mult)) != len(mult) or any(not m for m in mult):
+        mult = tuple("*".join(f.strip() for f in str(m).split("*")) for m in self.multipliers)
+        if len(set(mult)) != len(mult) or any(not f for m in mult for f in m.split("*")):
             raise InputError(f"structure of {self.coefficient}: repeated or empty multiplier "
                              f"in {list(mult)}")
         object.__setattr__(self, "multipliers", mult)
@@ -141,9 +145,14 @@ class Structure:
 
     @property
     def inputs(self) -> tuple:
-        """Every data column the model reads: the variables, then the multipliers that
-        are not variables (``'1'``, the constant, is no column)."""
-        extra = [m for m in self.multipliers if m != "1" and m not in self.variables]
+        """Every data column the model reads: the variables, then the columns of the
+        multipliers that are not variables (``'1'``, the constant, is no column; a
+        multiplier ``'beta*beta'`` or ``'qhat*flap'`` is a product of columns)."""
+        extra = []
+        for m in self.multipliers:
+            for f in multiplier_factors(m):
+                if f not in self.variables and f not in extra:
+                    extra.append(f)
         return (*self.variables, *extra)
 
     @property
@@ -163,6 +172,18 @@ class Structure:
     def nsimplex_max(self) -> int:
         """Simplices of the full grid (before empty ones are dropped)."""
         return math.factorial(self.ndim) * int(np.prod(self.cells))
+
+    def size(self, ranges: Mapping | None = None) -> int:
+        """Upper bound of the number of B-coefficients; with ``ranges`` (variable ->
+        (lower, upper) of the data) only the breakpoints :meth:`Scaling.from_data` would
+        use count."""
+        cells = list(self.cells)
+        for i, v in enumerate(self.variables):
+            if ranges is not None and v in self.knots_of and v in ranges:
+                lo, hi = ranges[v]
+                margin = KNOT_MARGIN * (hi - lo)
+                cells[i] = 1 + sum(lo + margin < k < hi - margin for k in self.knots_of[v])
+        return math.factorial(self.ndim) * int(np.prod(cells)) * self.ncoef_per_simplex
 
     @property
     def nbasis(self) -> int:
@@ -236,6 +257,36 @@ class Structure:
                    tuple(knots.items()))
 
 
+def multiplier_factors(name: str) -> tuple:
+    """The data columns whose product a multiplier is: ``'1'`` -> (), ``'da'`` ->
+    ('da',), ``'beta*beta'`` -> ('beta', 'beta')."""
+    return () if name == "1" else tuple(name.split("*"))
+
+
+def multiplier_values(structure: Structure, x: np.ndarray) -> np.ndarray:
+    """The multipliers (N, K) from inputs ``x`` (N, len(structure.inputs))."""
+    idx = {v: i for i, v in enumerate(structure.inputs)}
+    out = np.ones((len(x), structure.nterms))
+    for k, name in enumerate(structure.multipliers):
+        for f in multiplier_factors(name):
+            out[:, k] *= x[:, idx[f]]
+    return out
+
+
+def multiplier_jacobian(structure: Structure, x: np.ndarray) -> np.ndarray:
+    """d(multiplier k)/d(input i) at the points, shape (N, K, len(structure.inputs))."""
+    idx = {v: i for i, v in enumerate(structure.inputs)}
+    out = np.zeros((len(x), structure.nterms, len(structure.inputs)))
+    for k, name in enumerate(structure.multipliers):
+        factors = multiplier_factors(name)
+        for j, f in enumerate(factors):
+            rest = np.ones(len(x))
+            for g in factors[:j] + factors[j + 1:]:
+                rest = rest * x[:, idx[g]]
+            out[:, k, idx[f]] += rest
+    return out
+
+
 def _is_angle(variable: str) -> bool:
     return UNITS.get(variable) == "rad"
 
@@ -294,11 +345,68 @@ PAPER_PRESET = {
 }
 
 
+def _vc(label_parts: dict) -> dict:
+    """Varying-coefficient structures from (variables, multipliers, degree, continuity,
+    resolution, knots) per coefficient."""
+    out = {}
+    for c, (variables, mult, d, r, res, knots) in label_parts.items():
+        out[c] = Structure(c, variables, d, r, res or (), mult, tuple(knots.items()))
+    return out
+
+
+_DEG = np.pi / 180.0
+#: Breakpoints of the JSBSim F-16 aerodynamic tables (aircraft/f16/f16.xml): alpha every
+#: 5 deg from -10 to 45, beta every 5 deg, elevator -25/-12.5/0/12.5/25 deg, and per
+#: coefficient the Mach breakpoints of its Mach tables.
+_F16_ALPHA = tuple(np.arange(-10.0, 46.0, 5.0) * _DEG)
+_F16_BETA = tuple(np.arange(-30.0, 31.0, 5.0) * _DEG)
+_F16_DE = tuple(np.array([-25.0, -12.5, 0.0, 12.5, 25.0]) * _DEG)
+
+#: Varying-coefficient structures: ``C = sum_k m_k s_k(schedule)``, linear in the controls
+#: and rates with coefficients that vary over the envelope (the form of most aerodynamic
+#: databases), S^1_3 on uniform grids: for any aircraft. ``beta*beta`` carries the
+#: sideslip's second-order effect on the body-axis X and Z forces (wind to body axes),
+#: ``mass`` the moving centre of gravity (fuel burn) in the pitching moment about it.
+VARYING_PRESET = _vc({
+    "CX": (("alpha", "de", "mach"), ("1", "qhat", "beta*beta"), 3, 1, (3, 2, 2), {}),
+    "CY": (("alpha", "mach"), ("1", "beta", "da", "dr", "phat", "rhat"), 3, 1, (3, 2), {}),
+    "CZ": (("alpha", "de", "mach"), ("1", "qhat", "beta*beta"), 3, 1, (3, 2, 2), {}),
+    "Cl": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr"), 3, 1, (3, 2, 1), {}),
+    "Cm": (("alpha", "de", "mach"), ("1", "qhat", "mass"), 3, 1, (3, 2, 2), {}),
+    "Cn": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr"), 3, 1, (3, 2, 1), {}),
+})
+
+#: The varying-coefficient structures with grids on the breakpoints of the JSBSim F-16
+#: tables (prior knowledge of the aerodynamic database's grid: its tables are piecewise
+#: linear, so C^0 quadratic pieces on that grid contain them) and the leading-edge flap
+#: as a multiplier (the simulated FCS moves it in steps).
+F16_PRESET = _vc({
+    "CX": (("alpha", "de", "mach"), ("1", "qhat", "flap", "beta*beta", "qhat*flap"), 2, 0,
+           None, {"alpha": _F16_ALPHA, "de": _F16_DE, "mach": (0.81,)}),
+    "CY": (("alpha", "mach"), ("1", "beta", "da", "dr", "phat", "rhat"), 2, 0, None,
+           {"alpha": _F16_ALPHA, "mach": (0.4,)}),
+    "CZ": (("alpha", "de", "mach"), ("1", "qhat", "flap", "beta*beta"), 2, 0, None,
+           {"alpha": _F16_ALPHA, "de": _F16_DE, "mach": (0.81,)}),
+    "Cl": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr"), 2, 0, None,
+           {"alpha": _F16_ALPHA, "beta": _F16_BETA, "mach": (0.6, 0.8)}),
+    "Cm": (("alpha", "de", "mach"), ("1", "qhat", "flap", "mass"), 2, 0, None,
+           {"alpha": _F16_ALPHA, "de": _F16_DE, "mach": (0.6, 0.8, 0.9)}),
+    "Cn": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr"), 2, 0, None,
+           {"alpha": _F16_ALPHA, "beta": _F16_BETA, "mach": (0.6, 0.7, 0.8, 0.9)}),
+})
+
+#: Named presets.
+PRESETS = {"paper": PAPER_PRESET, "varying": VARYING_PRESET, "f16": F16_PRESET}
+
+
 def preset(name: str = "paper") -> dict:
-    """The named preset structures (``'paper'``), as a dict coefficient -> Structure."""
-    if name != "paper":
-        raise InputError(f"unknown structure preset {name!r}; available: 'paper'")
-    return dict(PAPER_PRESET)
+    """The named preset structures as a dict coefficient -> Structure: ``'paper'`` (the
+    paper's Section IV.E, plain S^1_3 splines), ``'varying'`` (varying-coefficient S^1_3
+    on uniform grids, any aircraft) or ``'f16'`` (varying-coefficient S^0_2 on the JSBSim
+    F-16 table breakpoints)."""
+    if name not in PRESETS:
+        raise InputError(f"unknown structure preset {name!r}; available: {sorted(PRESETS)}")
+    return dict(PRESETS[name])
 
 
 def structures_from_config(config: Mapping, base: Mapping | None = None) -> dict:
@@ -318,6 +426,11 @@ def structures_from_config(config: Mapping, base: Mapping | None = None) -> dict
                              f"{table!r}")
         out[coef] = Structure.from_dict(table, coef)
     return out
+
+
+#: Breakpoints closer than this fraction of a variable's data range to its ends are not
+#: used (see :meth:`Scaling.from_data`).
+KNOT_MARGIN = 0.05
 
 
 @dataclass(frozen=True)
@@ -353,7 +466,8 @@ class Scaling:
         """The bounding box of ``x`` (N, n); raises if a variable does not vary.
 
         ``knots`` maps variables to interior breakpoints (physical units): those inside
-        the data range and not within a quarter of their spacing of its ends are used.
+        the data range, farther than :data:`KNOT_MARGIN` of the range from its ends, are
+        used (a breakpoint just inside the data's end would make a cell without data).
         """
         x = np.asarray(x, dtype=float)
         lo, hi = x.min(axis=0), x.max(axis=0)
@@ -367,8 +481,8 @@ class Scaling:
             if len(ks) == 0:
                 full.append(())
                 continue
-            gap = np.median(np.diff(ks)) if len(ks) > 1 else (b - a)
-            inner = ks[(ks > a + 0.25 * gap) & (ks < b - 0.25 * gap)]
+            margin = KNOT_MARGIN * (b - a)
+            inner = ks[(ks > a + margin) & (ks < b - margin)]
             full.append((float(a), *(float(k) for k in inner), float(b)))
         return cls(tuple(variables), tuple(float(v) for v in lo), tuple(float(v) for v in hi),
                    tuple(full))
