@@ -24,7 +24,9 @@ A config file (all tables and keys optional)::
     max_samples = 150000
     min_points = 10
     moves = ["degree", "resolution", "variables"]
-    smoothing = "auto"         # 'auto' | 'gcv' | a relative weight (omit: 'auto')
+    prior = "auto"             # coarse-model prior: 'auto' (varying structures) | 'coarse'
+    prior_weight = 0.01
+    smoothing = "gcv"          # optional smoothness penalty: 'gcv' | 'auto' | a weight
 
     [models.CZ]                # starting (or fixed, with select = false) structure
     variables = ["alpha", "de", "mach", "qhat"]

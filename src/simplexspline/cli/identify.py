@@ -43,6 +43,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", action="append", default=[], metavar="STRUCTURE",
                    help="starting structure, e.g. 'CZ(alpha:3, de, mach) S^1_3' or "
                    "'CZ=alpha,de,mach' (repeatable)")
+    p.add_argument("--preset", choices=("paper", "varying", "f16"), default=None,
+                   help="starting structures: the paper's (paper, the default with DATA), "
+                   "varying-coefficient S^1_3 on uniform grids (varying), or "
+                   "varying-coefficient S^0_2 on the JSBSim F-16 table breakpoints (f16, the "
+                   "default of the main job on its simulated F-16)")
     p.add_argument("--no-select", action="store_true",
                    help="fit the given/preset structures as they are (no selection)")
     p.add_argument("--rounds", type=int, default=None,
@@ -71,11 +76,15 @@ def _settings(args):
     settings = IdentificationSettings()
     if args.data is None:  # the main job: a shorter search on the small default campaign
         # (a full search on 5-variable structures took 34 min here: keep it small)
-        settings = replace(settings, selection=replace(
-            settings.selection, max_rounds=3, max_samples=40_000, max_coefficients=3000))
+        aircraft = args.aircraft or DEFAULT_CAMPAIGN["aircraft"]
+        settings = replace(settings, preset="f16" if aircraft == "f16" else "varying",
+                           selection=replace(settings.selection, max_rounds=3,
+                                             max_samples=40_000, max_coefficients=3000))
     if args.config is not None:
         settings = load_config(args.config, settings)
     changes = {}
+    if args.preset is not None:
+        changes["preset"] = args.preset
     if args.coefficients:
         changes["coefficients"] = tuple(c.strip() for c in args.coefficients.split(",")
                                         if c.strip())
