@@ -293,3 +293,25 @@ def test_prior_in_cross_validation_and_errors(data):
     assert np.isfinite(with_prior) and with_prior < 0.7 * without
     with pytest.raises(InputError, match="prior must be"):
         fit_structure(parse_structure(LABEL), cols, y, prior="fine")
+
+
+def test_identify_leaves_out_a_multiplier_that_never_moved():
+    import warnings
+
+    from simplexspline.aero.identify import IdentificationSettings, ThinDataWarning, identify
+
+    data = campaign(n=8, samples=400)
+    data["dr"] = 0.0                                   # the rudder never moved
+    for col in ("CX", "CY", "CZ", "Cm", "Cn", "qhat", "rhat"):    # (not modelled here)
+        data[col] = 0.0
+    data["true_Cl"] = truth(data)
+    s = parse_structure("Cl(alpha@-10:30:5deg, beta | 1, phat, da, dr) S^0_2")
+    settings = IdentificationSettings(coefficients=("Cl",), structures={"Cl": s},
+                                      select=False, reconstruct="never")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = identify(data, {"aircraft": "synthetic", "S": 1.0, "b": 1.0, "cbar": 1.0},
+                       settings=settings)
+    assert res.results["Cl"].structure.multipliers == ("1", "phat", "da")
+    assert any(issubclass(w.category, ThinDataWarning) and "['dr']" in str(w.message)
+               for w in caught)

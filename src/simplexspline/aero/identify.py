@@ -30,7 +30,7 @@ from simplexspline.aero.selection import (
     select_structure,
     single_threaded_blas,
 )
-from simplexspline.aero.structure import COEFFICIENTS, Structure, preset
+from simplexspline.aero.structure import COEFFICIENTS, Structure, multiplier_values, preset
 from simplexspline.aero.validation import scores, split_by_maneuver
 from simplexspline.errors import FlightDataError, InputError
 
@@ -454,6 +454,7 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     t0 = time.perf_counter()
     y = ident[c].to_numpy(dtype=float)
     mans = ident["maneuver"].to_numpy()
+    start = _drop_zero_multipliers(start, columns, notes)
     if settings.select:
         best, history = select_structure(start, columns, y, mans, settings.selection,
                                          seed=settings.seed)
@@ -483,6 +484,27 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         warnings.warn(msg, ThinDataWarning, stacklevel=3)
     return CoefficientResult(model, v_scores, i_scores, history, counts, thin,
                              time.perf_counter() - t0)
+
+
+def _drop_zero_multipliers(s: Structure, columns: Mapping, notes: list) -> Structure:
+    """A varying-coefficient structure without the multipliers that are zero throughout
+    the identification data (e.g. a flap that never moved): they cannot be identified."""
+    if not s.varying:
+        return s
+    x = np.column_stack([np.asarray(columns[v], dtype=float) for v in s.inputs])
+    m = multiplier_values(s, x)
+    zero = [name for name, col in zip(s.multipliers, m.T) if not np.any(col != 0)]
+    if not zero:
+        return s
+    kept = tuple(name for name in s.multipliers if name not in zero)
+    if not kept:
+        raise InputError(f"every multiplier of {s.label()} is zero throughout the "
+                         "identification data")
+    msg = (f"{s.coefficient}: multiplier(s) {zero} are zero throughout the identification "
+           "data and were left out of the structure")
+    notes.append(msg)
+    warnings.warn(msg, ThinDataWarning, stacklevel=3)
+    return s.with_(multipliers=kept)
 
 
 class _NoBar:
