@@ -315,3 +315,16 @@ def test_identify_leaves_out_a_multiplier_that_never_moved():
     assert res.results["Cl"].structure.multipliers == ("1", "phat", "da")
     assert any(issubclass(w.category, ThinDataWarning) and "['dr']" in str(w.message)
                for w in caught)
+
+
+def test_prior_degree_is_chosen_by_cross_validation(data):
+    from simplexspline.aero.prior import PRIOR_DEGREES
+    from simplexspline.aero.selection import choose_prior_degree
+
+    cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
+    y = data["Cl"].to_numpy()
+    mans = data["maneuver"].to_numpy()
+    degree, scores = choose_prior_degree(parse_structure(LABEL), cols, y, mans)
+    assert set(scores) == set(PRIOR_DEGREES) and degree == min(scores, key=scores.get)
+    plain = parse_structure("Cl(alpha, beta) S^1_3")
+    assert choose_prior_degree(plain, cols, y, mans) == (3, {})   # no prior for plain ones

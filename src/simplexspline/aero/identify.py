@@ -26,6 +26,7 @@ from simplexspline.aero.model import AeroModel
 from simplexspline.aero.selection import (
     SelectionSettings,
     Trial,
+    choose_prior_degree,
     fit_structure,
     select_structure,
     single_threaded_blas,
@@ -455,9 +456,11 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     y = ident[c].to_numpy(dtype=float)
     mans = ident["maneuver"].to_numpy()
     start = _drop_zero_multipliers(start, columns, notes)
+    prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
+                                                     settings.selection, seed=settings.seed)
     if settings.select:
         best, history = select_structure(start, columns, y, mans, settings.selection,
-                                         seed=settings.seed)
+                                         seed=settings.seed, prior_degree=prior_degree)
     else:
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
     model = fit_structure(best, columns, y, min_points=settings.selection.min_points,
@@ -465,8 +468,12 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                           smoothing=settings.selection.smoothing,
                           prior=settings.selection.prior,
                           prior_weight=settings.selection.prior_weight,
+                          prior_degree=prior_degree,
                           provenance={"coefficient": c, **({"source": source}
                                                             if source else {})})
+    if prior_scores:
+        model.provenance["prior"]["cv_rms_by_degree"] = {str(d): v for d, v in
+                                                          prior_scores.items()}
     pred_v = model.predict(valid)
     valid[f"model_{c}"] = pred_v
     truth_v = valid[f"true_{c}"].to_numpy() if has_truth else None

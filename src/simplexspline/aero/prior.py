@@ -8,7 +8,8 @@ with one weight for the whole model (GCV) cannot fix this, because the thin regi
 too few samples to matter to the global criterion.
 
 Instead the fine fit gets *virtual samples* of a coarse model of the same variables and
-multipliers (one grid cell per variable, S^1_3, no breakpoints): in every simplex, at fixed
+multipliers (one grid cell per variable, C^1, no breakpoints; its degree, 2, 3 or 4, chosen
+by cross-validation over maneuvers of the fine model): in every simplex, at fixed
 interior points (the B-net of degree d + 1 pulled 10 % towards the centroid) and for every
 term, the coarse model's term value, each with a small weight ``w`` relative to a real
 sample (:data:`PRIOR_WEIGHT`, 0.01). A simplex holding thousands of samples hardly notices
@@ -27,7 +28,7 @@ import numpy as np
 from simplexspline.aero.structure import Structure
 from simplexspline.spline.bform import bnet_points
 
-__all__ = ["PRIOR_WEIGHT", "coarse_structure", "virtual_samples"]
+__all__ = ["PRIOR_DEGREES", "PRIOR_WEIGHT", "coarse_structure", "virtual_samples"]
 
 #: Weight of a virtual sample relative to the mean weight of the real ones.
 PRIOR_WEIGHT = 0.01
@@ -37,10 +38,15 @@ PRIOR_WEIGHT = 0.01
 _SHRINK = 0.9
 
 
-def coarse_structure(structure: Structure) -> Structure:
+#: Degrees the coarse model may have (chosen by cross-validation over maneuvers in
+#: :func:`simplexspline.aero.identify.identify`); 3 when not chosen.
+PRIOR_DEGREES = (2, 3, 4)
+
+
+def coarse_structure(structure: Structure, degree: int = 3) -> Structure:
     """The coarse model a structure is shrunk towards: its variables and multipliers, one
-    grid cell per variable, no breakpoints, degree 3, C^1."""
-    return Structure(structure.coefficient, structure.variables, 3, 1,
+    grid cell per variable, no breakpoints, the given degree, C^1 (C^0 for degree 1)."""
+    return Structure(structure.coefficient, structure.variables, degree, min(1, degree - 1),
                      (1,) * structure.ndim, structure.multipliers)
 
 

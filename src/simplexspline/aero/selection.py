@@ -24,14 +24,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from simplexspline.aero.model import AeroModel
-from simplexspline.aero.prior import PRIOR_WEIGHT, coarse_structure, virtual_samples
+from simplexspline.aero.prior import (
+    PRIOR_DEGREES,
+    PRIOR_WEIGHT,
+    coarse_structure,
+    virtual_samples,
+)
 from simplexspline.aero.structure import Scaling, Structure, multiplier_values
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.space import SplineSpace
 from simplexspline.spline.triangulation import Triangulation
 from simplexspline.spline.varying import VaryingCoefficientSpace
 
-__all__ = ["SelectionSettings", "Trial", "cv_score", "fit_structure", "select_structure"]
+__all__ = ["SelectionSettings", "Trial", "choose_prior_degree", "cv_score", "fit_structure",
+           "select_structure"]
 
 
 @dataclass(frozen=True)
@@ -209,7 +215,7 @@ def _prior_equations(structure, space, scaling, mscale, coarse, weight: float):
 def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
                   weights: np.ndarray | None = None, min_points: int = 10,
                   ridge: float = 1e-8, smoothing=None, prior=None,
-                  prior_weight: float = PRIOR_WEIGHT,
+                  prior_weight: float = PRIOR_WEIGHT, prior_degree: int = 3,
                   provenance: dict | None = None) -> AeroModel:
     """Fit one coefficient model of the given structure on all the given samples.
 
@@ -236,6 +242,8 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
         'auto' for varying-coefficient structures; None: never.
     prior_weight : float
         Weight of a virtual sample relative to the mean weight of the real ones.
+    prior_degree : int
+        Degree of the coarse model.
 
     Returns
     -------
@@ -253,7 +261,7 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
                      None if w is None else w[keep])
     prov = dict(provenance or {})
     if use_prior:
-        cs = coarse_structure(structure)
+        cs = coarse_structure(structure, prior_degree)
         coarse = fit_structure(cs, columns, y, weights=w, min_points=min_points,
                                ridge=ridge)
         wbar = 1.0 if w is None else float(np.mean(w[keep]))
@@ -319,7 +327,8 @@ def _solve(space, ne, ridge: float, smoothing=None):
 
 def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray, *,
              min_points: int = 10, ridge: float = 1e-8, smoothing=None, prior=None,
-             prior_weight: float = PRIOR_WEIGHT) -> tuple[float, int, int]:
+             prior_weight: float = PRIOR_WEIGHT,
+             prior_degree: int = 3) -> tuple[float, int, int]:
     """k-fold cross-validation RMS (folds = whole maneuvers).
 
     Returns
@@ -336,7 +345,7 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
     k = int(folds.max()) + 1
     total, parts = _fold_equations(space, u, m, y, folds, k)
     if use_prior:
-        cs = coarse_structure(structure)
+        cs = coarse_structure(structure, prior_degree)
         c_scaling, cu, cm, c_mscale, c_space = _space(cs, x, min_points)
         c_total, c_parts = _fold_equations(c_space, cu, cm, y, folds, k)
     sse = 0.0
@@ -352,6 +361,47 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         pred = _predict(spline, u[held], None if m is None else m[held])
         sse += float(np.sum((y[held] - pred) ** 2))
     return float(np.sqrt(sse / len(y))), int(space.dim_coefficients), int(tri.nsimplex)
+
+
+def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
+                        maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
+                        seed: int = 0) -> tuple[int, dict]:
+    """The degree of the prior's coarse model (:data:`~simplexspline.aero.prior.
+    PRIOR_DEGREES`) with the lowest k-fold cross-validation RMS (folds = maneuvers) of the
+    *fine* structure shrunk towards it: the coarse model matters where the fine one's data
+    are thin, which is what held-out maneuvers probe.
+
+    Returns
+    -------
+    degree : int
+        3 when the structure gets no prior (or there are too few maneuvers to choose).
+    scores : dict
+        CV RMS per degree tried.
+    """
+    from simplexspline.aero.validation import fold_by_maneuver
+
+    settings = settings or SelectionSettings()
+    if not _use_prior(structure, settings.prior):
+        return 3, {}
+    step = max(1, int(np.ceil(len(y) / settings.max_samples)))
+    cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
+    ys, mans = np.asarray(y, dtype=float)[::step], np.asarray(maneuvers)[::step]
+    k = min(settings.folds, len(np.unique(mans)))
+    if k < 2:
+        return 3, {}
+    folds = fold_by_maneuver(mans, k, seed=seed)
+    scores = {}
+    with single_threaded_blas():
+        for d in PRIOR_DEGREES:
+            try:
+                scores[d] = cv_score(structure, cols, ys, folds, min_points=settings.min_points,
+                                     ridge=settings.ridge, smoothing=settings.smoothing,
+                                     prior=settings.prior, prior_weight=settings.prior_weight,
+                                     prior_degree=d)[0]
+            except SimplexSplineError:
+                scores[d] = float("inf")
+    best = min(scores, key=scores.get)
+    return (best if np.isfinite(scores[best]) else 3), scores
 
 
 def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[str]):
@@ -420,7 +470,7 @@ def _size(s: Structure, ranges: Mapping | None = None) -> int:
 def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                      maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
                      seed: int = 0, progress: Callable[[str], None] | None = None,
-                     ) -> tuple[Structure, list]:
+                     prior_degree: int = 3) -> tuple[Structure, list]:
     """Greedy automatic model structure selection.
 
     Parameters
@@ -438,6 +488,8 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         Seed of the fold assignment.
     progress : callable, optional
         Called with a short text after each scored structure.
+    prior_degree : int
+        Degree of the coarse model of the prior (see :func:`choose_prior_degree`).
 
     Returns
     -------
@@ -477,7 +529,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
             trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
                 s, cols, ys, folds, min_points=settings.min_points, ridge=settings.ridge,
                 smoothing=settings.smoothing, prior=settings.prior,
-                prior_weight=settings.prior_weight)
+                prior_weight=settings.prior_weight, prior_degree=prior_degree)
         except SimplexSplineError as exc:
             trial.error = str(exc)[:300]
         trial.seconds = time.perf_counter() - t0
