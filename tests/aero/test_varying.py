@@ -184,6 +184,7 @@ def test_model_files_round_trip(model, data, tmp_path, suffix):
     back = AeroModel.load(path)
     assert back.structure == model.structure and back.scaling == model.scaling
     assert back.multiplier_scale == model.multiplier_scale
+    assert back.multiplier_offset == model.multiplier_offset and any(model.multiplier_offset)
     np.testing.assert_array_equal(back.predict(data.iloc[:300]), model.predict(data.iloc[:300]))
 
 

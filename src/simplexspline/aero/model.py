@@ -50,8 +50,12 @@ class AeroModel:
         The spline in scaled coordinates (unit box).
     provenance : dict
         Input file hash, settings, package version, data counts (JSON-serialisable).
-    multiplier_scale : tuple of float
-        Scale of each multiplier (varying-coefficient models; 1 for the constant).
+    multiplier_scale, multiplier_offset : tuple of float
+        Varying-coefficient models: term k multiplies ``(m_k - offset_k) / scale_k``. With a
+        constant term (``'1'``: offset 0, scale 1) the other multipliers are centred on
+        their identification-data mean (a multiplier far from zero, such as the mass, is
+        otherwise nearly collinear with the constant) and scaled by their standard
+        deviation; without one they are only scaled (by their RMS).
     """
 
     structure: Structure
@@ -59,12 +63,17 @@ class AeroModel:
     spline: SimplexSpline | VaryingCoefficientSpline
     provenance: dict = field(default_factory=dict)
     multiplier_scale: tuple = ()
+    multiplier_offset: tuple = ()
 
     def __post_init__(self):
         if self.structure.varying:
-            if len(self.multiplier_scale) != self.structure.nterms:
-                self.multiplier_scale = (1.0,) * self.structure.nterms
+            k = self.structure.nterms
+            if len(self.multiplier_scale) != k:
+                self.multiplier_scale = (1.0,) * k
+            if len(self.multiplier_offset) != k:
+                self.multiplier_offset = (0.0,) * k
             self.multiplier_scale = tuple(float(v) for v in self.multiplier_scale)
+            self.multiplier_offset = tuple(float(v) for v in self.multiplier_offset)
 
     @property
     def coefficient(self) -> str:
@@ -133,7 +142,8 @@ class AeroModel:
         z = self.schedule_scaling.transform(x[:, :n])
         if not self.varying:
             return z, None
-        return z, multiplier_values(self.structure, x) / np.asarray(self.multiplier_scale)
+        m = multiplier_values(self.structure, x) - np.asarray(self.multiplier_offset)
+        return z, m / np.asarray(self.multiplier_scale)
 
     def predict(self, data, *, outside: str = "clamp") -> np.ndarray:
         """Evaluate the coefficient.
@@ -199,6 +209,7 @@ class AeroModel:
         }
         if self.varying:
             meta["multiplier_scale"] = list(self.multiplier_scale)
+            meta["multiplier_offset"] = list(self.multiplier_offset)
         return meta
 
     def save(self, path) -> Path:
@@ -234,6 +245,7 @@ class AeroModel:
             structure = Structure.from_dict(aero["structure"])
             scaling = Scaling.from_dict(aero["scaling"])
             mscale = tuple(float(v) for v in aero.get("multiplier_scale", ()))
+            moffset = tuple(float(v) for v in aero.get("multiplier_offset", (0.0,) * len(mscale)))
         except (KeyError, TypeError, ValueError, InputError) as exc:
             raise ModelFileError(f"{path}: invalid aerodynamic model description: {exc}") \
                 from None
@@ -241,11 +253,13 @@ class AeroModel:
         if (scaling.variables != structure.inputs or spline.ndim != structure.ndim
                 or varying != structure.varying
                 or (varying and (spline.nterms != structure.nterms
-                                 or len(mscale) != structure.nterms))):
+                                 or len(mscale) != structure.nterms
+                                 or len(moffset) != structure.nterms))):
             raise ModelFileError(f"{path}: the structure, scaling and spline disagree on the "
                                  "variables or terms")
         spline.metadata = meta
-        return cls(structure, scaling, spline, dict(aero.get("provenance") or {}), mscale)
+        return cls(structure, scaling, spline, dict(aero.get("provenance") or {}), mscale,
+                   moffset)
 
     # ------------------------------------------------------------------ statistics
     def _plain(self, what: str) -> None:

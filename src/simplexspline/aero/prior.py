@@ -86,6 +86,7 @@ def virtual_samples(structure: Structure, triangulation, schedule_scaling, mscal
         return zu, None, coarse.spline.predict(zc, outside="extrapolate")
     K = structure.nterms
     terms = coarse.spline.term_values(zc, outside="extrapolate")          # (P, K)
-    # term k of the fine model multiplies m_k / mscale_k, the coarse one m_k / cscale_k
+    # term k of the fine model multiplies (m_k - offset_k) / mscale_k, the coarse one
+    # (m_k - offset_k) / cscale_k: both are normalised on the same data (same offsets)
     terms = terms * (np.asarray(mscale) / np.asarray(coarse.multiplier_scale))
     return np.repeat(zu, K, axis=0), np.tile(np.eye(K), (len(zu), 1)), terms.ravel()

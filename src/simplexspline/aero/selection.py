@@ -171,14 +171,19 @@ def _space(structure: Structure, x: np.ndarray, min_points: int):
         tri = Triangulation.grid(np.zeros(n), np.ones(n), res)
     space = SplineSpace(tri, structure.degree, structure.continuity)
     if not structure.varying:
-        return scaling, u, None, (), space
+        return scaling, u, None, ((), ()), space
     m = multiplier_values(structure, x)
-    scales = np.sqrt(np.mean(m ** 2, axis=0))
+    const = np.array([name == "1" for name in structure.multipliers])
+    # with a constant term the others are centred (see AeroModel.multiplier_offset)
+    offsets = np.where(const | (not const.any()), 0.0, m.mean(axis=0))
+    scales = np.sqrt(np.mean((m - offsets) ** 2, axis=0))
+    scales[const] = 1.0
     zero = [name for name, sc in zip(structure.multipliers, scales) if not sc > 0]
     if zero:
-        raise InputError(f"multiplier(s) {zero} of {structure.coefficient} are zero "
-                         "throughout the identification data: remove them")
-    return (scaling, u, m / scales, tuple(float(v) for v in scales),
+        raise InputError(f"multiplier(s) {zero} of {structure.coefficient} are "
+                         "constant throughout the identification data: remove them")
+    return (scaling, u, (m - offsets) / scales,
+            (tuple(float(v) for v in scales), tuple(float(v) for v in offsets)),
             VaryingCoefficientSpace(space, structure.nterms))
 
 
@@ -208,7 +213,7 @@ def _prior_equations(structure, space, scaling, mscale, coarse, weight: float):
     """Normal equations of the coarse model's virtual samples (see
     :mod:`simplexspline.aero.prior`), each with ``weight``."""
     z, m, yv = virtual_samples(structure, space.triangulation,
-                               scaling.subset(structure.variables), mscale, coarse)
+                               scaling.subset(structure.variables), mscale[0], coarse)
     return _accumulate(space, z, m, yv, np.full(len(yv), weight))
 
 
@@ -277,7 +282,7 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
     if reg is not None:
         prov["smoothing"] = {"penalty": reg.penalty, "relative_weight": reg.smoothing,
                              "edf": reg.edf}
-    return AeroModel(structure, scaling, spline, prov, mscale)
+    return AeroModel(structure, scaling, spline, prov, *mscale)
 
 
 def _fold_equations(space, u, m, y, folds, k):
@@ -353,7 +358,7 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         train = _minus(total, parts[f])
         if use_prior:
             c_spline = _solve(c_space, _minus(c_total, c_parts[f]), ridge)
-            coarse = AeroModel(cs, c_scaling, c_spline, {}, c_mscale)
+            coarse = AeroModel(cs, c_scaling, c_spline, {}, *c_mscale)
             train.merge(_prior_equations(structure, space, scaling, mscale, coarse,
                                          prior_weight))
         spline = _solve(space, train, ridge, smoothing)
@@ -553,8 +558,12 @@ def _search(start, settings, available, budget, score, ranges=None):
                          f"{history[-1].error}")
     history[-1].accepted = True
     for rnd in range(1, settings.max_rounds + 1):
+        # moves may grow a structure up to the budget; moves that shrink it (fewer
+        # multipliers, coarser, lower degree) are always allowed, so a start above the
+        # budget (a preset on a short campaign) can still be simplified
+        limit = max(budget, _size(best, ranges))
         moves = [(m, s) for m, s in _neighbours(best, settings, available)
-                 if _size(s, ranges) <= budget]
+                 if _size(s, ranges) <= limit]
         if not moves:
             break
         results = [(score(s, rnd, m), m, s) for m, s in moves]

@@ -74,12 +74,10 @@ def _settings(args):
     from simplexspline.aero.identify import IdentificationSettings
 
     settings = IdentificationSettings()
-    if args.data is None:  # the main job: a shorter search on the small default campaign
-        # (a full search on 5-variable structures took 34 min here: keep it small)
+    if args.data is None:  # the main job: the simulated aircraft's preset, short search
         aircraft = args.aircraft or DEFAULT_CAMPAIGN["aircraft"]
         settings = replace(settings, preset="f16" if aircraft == "f16" else "varying",
-                           selection=replace(settings.selection, max_rounds=3,
-                                             max_samples=40_000, max_coefficients=3000))
+                           selection=replace(settings.selection, max_rounds=3))
     if args.config is not None:
         settings = load_config(args.config, settings)
     changes = {}
