@@ -298,17 +298,6 @@ def _fold_equations(space, u, m, y, folds, k):
     return total, parts
 
 
-def _minus(total, part):
-    """The normal equations of ``total`` without ``part``'s samples."""
-    out = total.copy()
-    out.XtWX -= part.XtWX
-    out.XtWy -= part.XtWy
-    out.ytWy -= part.ytWy
-    out.wsum -= part.wsum
-    out.counts -= part.counts
-    return out
-
-
 def _penalty(space) -> str:
     """The smoothing penalty of a space: the thin-plate energy, or for C^0 spaces (whose
     kinks across facets the energy does not see) the membrane energy."""
@@ -355,9 +344,9 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         c_total, c_parts = _fold_equations(c_space, cu, cm, y, folds, k)
     sse = 0.0
     for f in range(k):
-        train = _minus(total, parts[f])
+        train = total - parts[f]
         if use_prior:
-            c_spline = _solve(c_space, _minus(c_total, c_parts[f]), ridge)
+            c_spline = _solve(c_space, c_total - c_parts[f], ridge)
             coarse = AeroModel(cs, c_scaling, c_spline, {}, *c_mscale)
             train.merge(_prior_equations(structure, space, scaling, mscale, coarse,
                                          prior_weight))

@@ -234,6 +234,18 @@ class NormalEquations:
         out = self.copy()
         return out.merge(other)
 
+    def __sub__(self, other: NormalEquations) -> NormalEquations:
+        """The blocks of this accumulator without ``other``'s (e.g. all data minus one
+        cross-validation fold)."""
+        self.check_space(other.triangulation, other.degree)
+        out = self.copy()
+        out.XtWX -= other.XtWX
+        out.XtWy -= other.XtWy
+        out.ytWy -= other.ytWy
+        out.wsum -= other.wsum
+        out.counts -= other.counts
+        return out
+
     def copy(self) -> NormalEquations:
         """A deep copy."""
         out = NormalEquations.__new__(NormalEquations)
