@@ -9,7 +9,8 @@ spline can be used in :class:`sklearn.pipeline.Pipeline`, tuned by
 scikit-learn is optional: when it is installed the estimator subclasses its
 ``RegressorMixin`` and ``BaseEstimator`` (and uses its input validation, so it behaves
 exactly like the library's own estimators); without it, equivalent ``get_params``,
-``set_params``, ``score`` and input validation are provided here.
+``set_params``, ``score`` and input validation are provided by
+:mod:`simplexspline._estimator_compat`.
 
 How a fit works
 ---------------
@@ -30,39 +31,38 @@ How a fit works
 
 from __future__ import annotations
 
-import inspect
 import numbers
-import warnings
 from math import comb, factorial
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
 
-from simplexspline.errors import InputError, SimplexSplineError
-from simplexspline.spline.bform import basis_values, num_basis
-from simplexspline.spline.solve import SolveInfo, solve_constrained
-from simplexspline.spline.space import SplineSpace
+from simplexspline._estimator_compat import (  # noqa: F401 - private names re-exported
+    HAVE_SKLEARN,
+    _BaseEstimator,
+    _Bases,
+    _check_weights,
+    _fallback_validate_X,
+    _fallback_validate_y,
+    _FallbackBaseEstimator,
+    _FallbackRegressorMixin,
+    _feature_names,
+    _is_int,
+    _RegressorMixin,
+    _sk_call,
+    _sk_validate_data,
+    _SklearnNotFittedError,
+)
+from simplexspline._estimator_solve import (  # noqa: F401 - private names re-exported
+    _CHUNK,
+    _extra_rhs,
+    _solve_dual,
+    solve_outputs,
+)
+from simplexspline.errors import InputError
+from simplexspline.spline.bform import num_basis
 from simplexspline.spline.spline import SimplexSpline
 from simplexspline.spline.triangulation import Triangulation
 from simplexspline.spline.validation import check_degree
-
-try:  # scikit-learn is optional
-    from sklearn.base import BaseEstimator as _BaseEstimator
-    from sklearn.base import RegressorMixin as _RegressorMixin
-    from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
-
-    try:  # scikit-learn >= 1.6
-        from sklearn.utils.validation import validate_data as _sk_validate_data
-    except ImportError:  # pragma: no cover - older scikit-learn
-        _sk_validate_data = None
-    HAVE_SKLEARN = True
-except ImportError:  # pragma: no cover - exercised by a subprocess test
-    HAVE_SKLEARN = False
-    _sk_validate_data = None
-    _SklearnNotFittedError = AttributeError
-    _BaseEstimator = None
-    _RegressorMixin = None
 
 __all__ = [
     "SimplexSplineRegressor",
@@ -89,9 +89,6 @@ GRID_SIMPLEX_LIMIT = 100_000
 #: Gram block is a dense square matrix of this order.
 MAX_BASIS_PER_SIMPLEX = 6000
 
-#: Rows per chunk when extra outputs' right-hand sides are accumulated.
-_CHUNK = 1 << 16
-
 #: Relative tolerance of the box tests in model coordinates (as the locators' INSIDE_TOL).
 _BOX_TOL = 1e-10
 
@@ -103,76 +100,6 @@ class NotFittedError(InputError, _SklearnNotFittedError):
     installed, from :class:`sklearn.exceptions.NotFittedError` (otherwise from
     ``AttributeError``), so either family catches it.
     """
-
-
-# --------------------------------------------------------------------------- fallbacks
-class _FallbackBaseEstimator:
-    """``get_params`` / ``set_params`` / ``repr`` as scikit-learn's BaseEstimator does them."""
-
-    @classmethod
-    def _get_param_names(cls) -> list[str]:
-        sig = inspect.signature(cls.__init__)
-        return sorted(p.name for p in sig.parameters.values()
-                      if p.name != "self" and p.kind == p.KEYWORD_ONLY)
-
-    def get_params(self, deep: bool = True) -> dict:
-        """Parameters of this estimator, name -> value."""
-        return {name: getattr(self, name) for name in self._get_param_names()}
-
-    def set_params(self, **params):
-        """Set parameters (validated at ``fit``, as scikit-learn does); returns self."""
-        valid = self._get_param_names()
-        for name, value in params.items():
-            if name not in valid:
-                raise InputError(f"Invalid parameter {name!r} for estimator "
-                                 f"{type(self).__name__}. Valid parameters are: {valid!r}.")
-            setattr(self, name, value)
-        return self
-
-    def __repr__(self) -> str:
-        defaults = {p.name: p.default
-                    for p in inspect.signature(type(self).__init__).parameters.values()}
-        changed = []
-        for name, value in self.get_params().items():
-            default = defaults.get(name)
-            same = value is default or (type(value) is type(default) and value == default)
-            if not same:
-                changed.append(f"{name}={value!r}")
-        return f"{type(self).__name__}({', '.join(changed)})"
-
-
-class _FallbackRegressorMixin:
-    """``score`` (the coefficient of determination R^2) without scikit-learn."""
-
-    def score(self, X, y, sample_weight=None) -> float:
-        """R^2 of ``predict(X)`` against ``y`` (averaged uniformly over outputs).
-
-        Parameters
-        ----------
-        X : array_like, shape (N, n)
-        y : array_like, shape (N,) or (N, k)
-        sample_weight : array_like, shape (N,), optional
-        """
-        pred = np.asarray(self.predict(X), dtype=float)
-        y = np.asarray(y, dtype=float)
-        if y.shape != pred.shape:
-            y = y.reshape(pred.shape)
-        w = np.ones(len(y)) if sample_weight is None else _check_weights(sample_weight,
-                                                                         len(y))
-        y2, p2 = y.reshape(len(y), -1), pred.reshape(len(y), -1)
-        mean = (w[:, None] * y2).sum(axis=0) / w.sum()
-        ss_res = (w[:, None] * (y2 - p2) ** 2).sum(axis=0)
-        ss_tot = (w[:, None] * (y2 - mean) ** 2).sum(axis=0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r2 = np.where(ss_tot > 0, 1.0 - ss_res / ss_tot,
-                          np.where(ss_res > 0, 0.0, 1.0))
-        return float(np.mean(r2))
-
-
-if HAVE_SKLEARN:
-    _Bases = (_RegressorMixin, _BaseEstimator)
-else:  # pragma: no cover - exercised by a subprocess test
-    _Bases = (_FallbackRegressorMixin, _FallbackBaseEstimator)
 
 
 # --------------------------------------------------------------------------- estimator
@@ -508,37 +435,7 @@ class SimplexSplineRegressor(*_Bases):
 
     def _solve(self, tri, kind, U, Y, w, cfg):
         """B-coefficients (one (J, d_hat) array per output) and their SolveInfo."""
-        degree, ridge = cfg["degree"], cfg["ridge"]
-        dhat = num_basis(tri.ndim, degree)
-        if kind == "simplex" and len(U) < dhat:
-            return _solve_dual(tri, degree, U, Y, w, ridge)
-        space = SplineSpace(tri, degree, cfg["continuity"])
-        policy = "ridge" if ridge > 0 else "minnorm"
-        kw = {"on_insufficient": policy, "ridge": ridge if ridge > 0 else None}
-        ne = space.normal_equations(U, Y[:, 0], w)
-        rhs, yty = _extra_rhs(space, U, Y[:, 1:], w)
-        coefs, infos = [], []
-        for k in range(Y.shape[1]):
-            nek = ne
-            if k:
-                nek = ne.copy()
-                nek.XtWy = rhs[:, :, k - 1]
-                nek.ytWy = float(yty[k - 1])
-            if kind == "simplex" and ridge > 0:
-                # One polynomial on a simplex much larger than the data: its Bernstein
-                # columns differ in scale by orders of magnitude, so the ridge is relative to
-                # each coefficient's own Gram diagonal (Jacobi-scaled, scale invariant).
-                diag = np.einsum("jkk->jk", nek.XtWX)
-                floor = diag.max() * np.finfo(float).eps
-                pen = ridge * np.apply_along_axis(np.diag, 1, np.maximum(diag, floor))
-                c, info = solve_constrained(nek, space.system, on_insufficient="minnorm",
-                                            penalty=pen)
-            else:
-                sol = space.solve(nek, **kw)
-                c, info = sol.coefficients, sol.info
-            coefs.append(c)
-            infos.append(info)
-        return coefs, infos
+        return solve_outputs(tri, kind, U, Y, w, cfg)
 
     # ------------------------------------------------------------------ predict
     def predict(self, X) -> np.ndarray:
@@ -696,160 +593,3 @@ class SimplexSplineRegressor(*_Bases):
         else:
             X = _fallback_validate_X(self, X, reset=False)
         return np.asarray(X, dtype=float)
-
-
-# --------------------------------------------------------------------------- helpers
-def _is_int(v) -> bool:
-    return isinstance(v, (numbers.Integral, np.integer)) and not isinstance(v, (bool, np.bool_))
-
-
-def _sk_call(est, X, y, *, reset: bool, **kw):
-    """scikit-learn's input validation (any supported version); its ValueErrors become
-    InputError (a ValueError too) with the same message."""
-    kw.setdefault("dtype", np.float64)
-    try:
-        if _sk_validate_data is not None:
-            if y is None:
-                return _sk_validate_data(est, X, reset=reset, **kw)
-            return _sk_validate_data(est, X, y, reset=reset, **kw)
-        if y is None:  # pragma: no cover - scikit-learn < 1.6
-            return est._validate_data(X, reset=reset, **kw)
-        return est._validate_data(X, y, reset=reset, **kw)  # pragma: no cover
-    except SimplexSplineError:
-        raise
-    except ValueError as exc:
-        raise InputError(str(exc)) from None
-
-
-def _feature_names(X):
-    cols = getattr(X, "columns", None)
-    if cols is None:
-        return None
-    names = np.asarray(list(cols), dtype=object)
-    if len(names) and all(isinstance(c, str) for c in names):
-        return names
-    return None
-
-
-def _fallback_validate_X(est, X, *, reset: bool) -> np.ndarray:
-    """Input validation equivalent to scikit-learn's, for use without it."""
-    name = type(est).__name__
-    if sp.issparse(X):
-        raise TypeError(f"{name} does not accept sparse input: pass a dense array "
-                        "(X.toarray())")
-    names = _feature_names(X)
-    arr = np.asarray(X)
-    if arr.dtype.kind == "c":
-        raise InputError("Complex data not supported")
-    try:
-        arr = arr.astype(float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"X must be numeric: {exc}") from None
-    if arr.ndim != 2:
-        raise InputError(f"Expected a 2D array, got {arr.ndim}D array instead: reshape your "
-                         "data, X.reshape(-1, 1) for a single feature or X.reshape(1, -1) "
-                         "for a single sample")
-    if arr.shape[0] < 1 or arr.shape[1] < 1:
-        raise InputError(f"Found array with shape {arr.shape} while at least 1 sample and "
-                         "1 feature are required")
-    if not np.all(np.isfinite(arr)):
-        raise InputError("Input X contains NaN or infinity: remove or impute those samples")
-    if reset:
-        est.n_features_in_ = arr.shape[1]
-        if names is not None:
-            est.feature_names_in_ = names
-        return arr
-    fitted = getattr(est, "feature_names_in_", None)
-    if fitted is not None and names is None:
-        warnings.warn(f"X does not have valid feature names, but {name} was fitted with "
-                      "feature names", UserWarning, stacklevel=3)
-    elif fitted is None and names is not None:
-        warnings.warn(f"X has feature names, but {name} was fitted without feature names",
-                      UserWarning, stacklevel=3)
-    elif fitted is not None and (len(fitted) != len(names) or np.any(fitted != names)):
-        raise InputError("The feature names should match those that were passed during "
-                         f"fit: expected {list(fitted)}, got {list(names)}")
-    if arr.shape[1] != est.n_features_in_:
-        raise InputError(f"X has {arr.shape[1]} features, but {name} is expecting "
-                         f"{est.n_features_in_} features as input.")
-    return arr
-
-
-def _fallback_validate_y(y, npts: int) -> np.ndarray:
-    if y is None:
-        raise InputError("this estimator requires y to be passed, but the target y is None")
-    try:
-        arr = np.asarray(y, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"y must be numeric: {exc}") from None
-    if arr.ndim not in (1, 2) or len(arr) != npts:
-        raise InputError(f"y must have shape ({npts},) or ({npts}, k) to match X, got "
-                         f"{arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InputError("Input y contains NaN or infinity: remove those samples")
-    return arr
-
-
-def _check_weights(sample_weight, npts: int):
-    """Validated copy of the sample weights, shape (N,), or None."""
-    if sample_weight is None:
-        return None
-    try:
-        w = np.array(sample_weight, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"sample_weight must be numeric: {exc}") from None
-    if w.ndim == 0:
-        w = np.full(npts, float(w))
-    if w.shape != (npts,):
-        raise InputError(f"sample_weight.shape == {w.shape}, expected ({npts},): one "
-                         "weight per sample")
-    if not np.all(np.isfinite(w)):
-        raise InputError("sample_weight contains NaN or inf")
-    if np.any(w < 0):
-        raise InputError(f"sample_weight must be >= 0; {int((w < 0).sum())} are negative")
-    return w
-
-
-def _extra_rhs(space, U, Y, w):
-    """X'Wy (J, d_hat, k) and y'Wy (k,) of further outputs (the Gram blocks are shared)."""
-    J, dhat, k = space.triangulation.nsimplex, space.nbasis, Y.shape[1]
-    acc = np.zeros((J * dhat, k))
-    yty = np.zeros(k)
-    if k == 0:
-        return acc.reshape(J, dhat, 0), yty
-    for s in range(0, len(U), _CHUNK):
-        D = space.design_matrix(U[s:s + _CHUNK])
-        yc = Y[s:s + _CHUNK]
-        wy = yc if w is None else yc * w[s:s + _CHUNK, None]
-        acc += D.T @ wy
-        yty += (wy * yc).sum(axis=0)
-    return acc.reshape(J, dhat, k), yty
-
-
-def _solve_dual(tri, degree: int, U, Y, w, ridge: float):
-    """One simplex with fewer samples than coefficients: the same estimate as
-    :meth:`SplineSpace.solve` (ridge, or minimum norm when ``ridge`` is 0) from the
-    N x N dual system instead of the d_hat x d_hat Gram matrix."""
-    n = len(U)
-    B = basis_values(tri.barycentric(U, np.zeros(n, dtype=np.int64)), degree)  # (N, d_hat)
-    dhat = B.shape[1]
-    sw = np.ones(n) if w is None else np.sqrt(w)
-    Bw, Yw = B * sw[:, None], Y * sw[:, None]
-    sv = np.linalg.svd(Bw, compute_uv=False)
-    rank = int((sv > sv[0] * max(Bw.shape) * np.finfo(float).eps).sum())
-    lam = ridge * float((Bw ** 2).sum()) / dhat  # ridge * mean(diag X'WX), as the solver
-    if lam > 0:
-        K = Bw @ Bw.T
-        K[np.diag_indices(n)] += lam
-        C = Bw.T @ sla.solve(K, Yw, assume_a="pos")
-        policy = "ridge"
-    else:
-        C = np.linalg.lstsq(Bw, Yw, rcond=None)[0]
-        policy = "minnorm"
-    rss = ((Yw - Bw @ C) ** 2).sum(axis=0)
-    nund = dhat - rank
-    infos = [SolveInfo(counts=np.array([n]), deficient_simplices=np.array([0]),
-                       undetermined_simplices=np.array([0] if nund else [], dtype=np.intp),
-                       n_undetermined=nund, policy=policy, ridge=lam, rss=float(r))
-             for r in rss]
-    return [C[:, k][None, :] for k in range(Y.shape[1])], infos
