@@ -280,6 +280,8 @@ def test_coarse_prior_stops_divergence_where_data_are_thin():
         errs[prior] = (np.sqrt(np.mean(e[region] ** 2)), np.sqrt(np.mean(e[~region] ** 2)))
     assert m.provenance["prior"]["structure"] == \
         "Cl(alpha, beta, mach | 1, phat, da) S^1_3"
+    # the per-simplex counts are of real samples only (the virtual ones are not data)
+    assert sum(m.provenance["counts"]) == m.provenance["samples"] == int(keep.sum())
     assert errs["auto"][0] < 0.2 * errs[None][0]          # thin region: far better
     assert errs["auto"][1] < 1.5 * errs[None][1] + 2e-5   # dense region: unharmed
 

@@ -484,9 +484,12 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     counts = np.asarray(model.provenance["counts"])
     thin = np.nonzero(counts < settings.thin_factor * best.ncoef_per_simplex)[0]
     if len(thin):
+        limit = int(settings.thin_factor * best.ncoef_per_simplex)
+        there = ("it follows the coarse prior model there" if "prior" in model.provenance
+                 else "the model is poorly supported there")
         msg = (f"{c}: {len(thin)} of {len(counts)} simplices hold fewer than "
-               f"{settings.thin_factor:g} x K d_hat = {int(settings.thin_factor * best.ncoef_per_simplex)}"
-               f" samples (fewest: {int(counts.min())}); the model is poorly supported there")
+               f"{settings.thin_factor:g} x K d_hat = {limit} samples (fewest: "
+               f"{int(counts.min())}); {there}")
         notes.append(msg)
         warnings.warn(msg, ThinDataWarning, stacklevel=3)
     return CoefficientResult(model, v_scores, i_scores, history, counts, thin,

@@ -265,6 +265,7 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
     ne = _accumulate(space, u[keep], None if m is None else m[keep], y[keep],
                      None if w is None else w[keep])
     prov = dict(provenance or {})
+    counts = ne.counts.copy()          # real samples (before any virtual ones are added)
     if use_prior:
         cs = coarse_structure(structure, prior_degree)
         coarse = fit_structure(cs, columns, y, weights=w, min_points=min_points,
@@ -275,7 +276,7 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
         prov["prior"] = {"structure": cs.label(), "weight": prior_weight}
     spline = _solve(space, ne, ridge, smoothing)
     prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
-                counts=ne.counts.tolist(), nbasis=structure.nbasis,
+                counts=counts.tolist(), nbasis=structure.nbasis,
                 nsimplex=space.triangulation.nsimplex,
                 ncoefficients=int(space.dim_coefficients))
     reg = getattr(spline.info, "regularization", None)
