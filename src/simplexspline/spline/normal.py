@@ -16,7 +16,10 @@ from simplexspline.spline import kernels
 from simplexspline.spline.bform import basis_values_t, num_basis
 from simplexspline.spline.validation import as_points, as_values, as_weights
 
-__all__ = ["NormalEquations"]
+__all__ = ["BlockSums", "NormalEquations"]
+
+#: The additive sufficient statistics of an accumulator (what merge, + and - combine).
+_BLOCKS = ("XtWX", "XtWy", "ytWy", "wsum", "counts")
 
 #: Points processed per chunk when accumulating (bounds temporary memory).
 CHUNK = 1 << 18
@@ -43,7 +46,58 @@ def _thread_count(npoints: int, threads: int | None) -> int:
     return kernels.thread_count(npoints, threads, PARALLEL_MIN_POINTS)
 
 
-class NormalEquations:
+class BlockSums:
+    """What accumulators of per-simplex normal-equation blocks share: the additive
+    sufficient statistics (:data:`_BLOCKS`) and how they combine. Subclasses define the
+    blocks' shapes, ``add`` and ``_check_compatible``."""
+
+    @property
+    def npoints(self) -> int:
+        """Total number of accumulated points."""
+        return int(self.counts.sum())
+
+    def _space_key(self) -> tuple:
+        """The arguments of ``check_space`` that describe these blocks' space."""
+        return self.triangulation, self.degree
+
+    def _check_compatible(self, other) -> None:
+        if type(other) is not type(self):
+            raise InputError(f"cannot combine {type(self).__name__} with "
+                             f"{type(other).__name__}")
+        self.check_space(*other._space_key())
+
+    def merge(self, other):
+        """Add another accumulator (same space) into this one, in place."""
+        self._check_compatible(other)
+        for name in _BLOCKS:
+            mine = getattr(self, name)
+            if isinstance(mine, np.ndarray):
+                mine += getattr(other, name)
+            else:
+                setattr(self, name, mine + getattr(other, name))
+        return self
+
+    def __add__(self, other):
+        return self.copy().merge(other)
+
+    def __sub__(self, other):
+        """The blocks of this accumulator without ``other``'s (e.g. all data minus one
+        cross-validation fold)."""
+        self._check_compatible(other)
+        out = self.copy()
+        for name in _BLOCKS:
+            setattr(out, name, getattr(out, name) - getattr(other, name))
+        return out
+
+    def copy(self):
+        """A deep copy (the triangulation is shared)."""
+        out = type(self).__new__(type(self))
+        out.__dict__.update({k: (v.copy() if isinstance(v, np.ndarray) else v)
+                             for k, v in self.__dict__.items()})
+        return out
+
+
+class NormalEquations(BlockSums):
     """Sufficient statistics of a (weighted) least-squares spline fit.
 
     Parameters
@@ -79,11 +133,6 @@ class NormalEquations:
         self.ytWy = 0.0
         self.wsum = np.zeros(nsimp)
         self.counts = np.zeros(nsimp, dtype=np.int64)
-
-    @property
-    def npoints(self) -> int:
-        """Total number of accumulated points."""
-        return int(self.counts.sum())
 
     def add(self, x, y, weights=None, *, threads: int | None = None) -> NormalEquations:
         """Accumulate a chunk of data in place.
@@ -220,40 +269,4 @@ class NormalEquations:
             raise InputError("the normal equations were accumulated on a different "
                              "triangulation than this spline space's")
 
-    def merge(self, other: NormalEquations) -> NormalEquations:
-        """Add another accumulator (same triangulation and degree) into this one."""
-        self.check_space(other.triangulation, other.degree)
-        self.XtWX += other.XtWX
-        self.XtWy += other.XtWy
-        self.ytWy += other.ytWy
-        self.wsum += other.wsum
-        self.counts += other.counts
-        return self
 
-    def __add__(self, other: NormalEquations) -> NormalEquations:
-        out = self.copy()
-        return out.merge(other)
-
-    def __sub__(self, other: NormalEquations) -> NormalEquations:
-        """The blocks of this accumulator without ``other``'s (e.g. all data minus one
-        cross-validation fold)."""
-        self.check_space(other.triangulation, other.degree)
-        out = self.copy()
-        out.XtWX -= other.XtWX
-        out.XtWy -= other.XtWy
-        out.ytWy -= other.ytWy
-        out.wsum -= other.wsum
-        out.counts -= other.counts
-        return out
-
-    def copy(self) -> NormalEquations:
-        """A deep copy."""
-        out = NormalEquations.__new__(NormalEquations)
-        out.triangulation = self.triangulation
-        out.degree = self.degree
-        out.XtWX = self.XtWX.copy()
-        out.XtWy = self.XtWy.copy()
-        out.ytWy = self.ytWy
-        out.wsum = self.wsum.copy()
-        out.counts = self.counts.copy()
-        return out

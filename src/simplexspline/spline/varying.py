@@ -30,6 +30,7 @@ import scipy.sparse as sp
 from simplexspline.errors import InputError, OutsideDomainError
 from simplexspline.spline import kernels
 from simplexspline.spline.bform import basis_values_t, num_basis
+from simplexspline.spline.normal import BlockSums
 from simplexspline.spline.spline import OUTSIDE_POLICIES, SimplexSpline
 from simplexspline.spline.validation import as_points, as_values, as_weights
 
@@ -82,7 +83,7 @@ class _TermSystem:
         self.solver_cache: dict = {"points": np.tile(pts, (K, 1))}
 
 
-class VaryingNormalEquations:
+class VaryingNormalEquations(BlockSums):
     """Per-simplex normal-equation blocks of a varying-coefficient fit.
 
     Attributes
@@ -97,7 +98,7 @@ class VaryingNormalEquations:
     or partitions can be accumulated separately.
     """
 
-    def __init__(self, triangulation, degree: int, nterms: int):
+    def __init__(self, triangulation, degree: int, nterms: int):  # noqa: D107
         self.triangulation = triangulation
         self.degree = int(degree)
         self.nterms = int(nterms)
@@ -108,10 +109,6 @@ class VaryingNormalEquations:
         self.ytWy = 0.0
         self.wsum = np.zeros(J)
         self.counts = np.zeros(J, dtype=np.int64)
-
-    @property
-    def npoints(self) -> int:
-        return int(self.counts.sum())
 
     def add(self, z, m, y, weights=None) -> VaryingNormalEquations:
         """Accumulate a chunk in place.
@@ -172,7 +169,10 @@ class VaryingNormalEquations:
             self.XtWX[j] += rw @ rj.T
             self.XtWy[j] += rj @ wy[a:b]
 
-    def check_space(self, triangulation, degree: int, nterms: int) -> None:
+    def check_space(self, triangulation, degree: int, nterms: int | None = None) -> None:
+        """Raise InputError unless these blocks belong to this triangulation, degree and
+        number of terms."""
+        nterms = self.nterms if nterms is None else nterms
         if degree != self.degree or nterms != self.nterms:
             raise InputError(f"normal equations of degree {self.degree} with {self.nterms} "
                              f"terms do not match a space of degree {degree} with {nterms}")
@@ -180,34 +180,8 @@ class VaryingNormalEquations:
             raise InputError("the normal equations were accumulated on a different "
                              "triangulation than this space's")
 
-    def merge(self, other: VaryingNormalEquations) -> VaryingNormalEquations:
-        self.check_space(other.triangulation, other.degree, other.nterms)
-        self.XtWX += other.XtWX
-        self.XtWy += other.XtWy
-        self.ytWy += other.ytWy
-        self.wsum += other.wsum
-        self.counts += other.counts
-        return self
-
-    def copy(self) -> VaryingNormalEquations:
-        out = VaryingNormalEquations.__new__(VaryingNormalEquations)
-        out.__dict__.update({k: (v.copy() if isinstance(v, np.ndarray) else v)
-                             for k, v in self.__dict__.items()})
-        return out
-
-    def __add__(self, other: VaryingNormalEquations) -> VaryingNormalEquations:
-        return self.copy().merge(other)
-
-    def __sub__(self, other: VaryingNormalEquations) -> VaryingNormalEquations:
-        """The blocks of this accumulator without ``other``'s (e.g. all data minus a fold)."""
-        other.check_space(self.triangulation, self.degree, self.nterms)
-        out = self.copy()
-        out.XtWX -= other.XtWX
-        out.XtWy -= other.XtWy
-        out.ytWy -= other.ytWy
-        out.wsum -= other.wsum
-        out.counts -= other.counts
-        return out
+    def _space_key(self) -> tuple:
+        return self.triangulation, self.degree, self.nterms
 
 
 class VaryingCoefficientSpace:
