@@ -331,3 +331,20 @@ def test_prior_degree_is_chosen_by_cross_validation(data):
     assert set(scores) == set(PRIOR_DEGREES) and degree == min(scores, key=scores.get)
     plain = parse_structure("Cl(alpha, beta) S^1_3")
     assert choose_prior_degree(plain, cols, y, mans) == (3, {})   # no prior for plain ones
+
+
+def test_multiplier_terms_restricted_to_variables():
+    s = parse_structure("Cl(alpha:3, beta:2 | 1, phat[alpha], da[], dr[alpha/beta]) S^1_3")
+    assert s.term_dims == [None, (0,), (), (0, 1)]
+    assert s.inputs == ("alpha", "beta", "phat", "da", "dr")
+    assert parse_structure(s.label()) == s
+    with pytest.raises(InputError, match="may only depend on variables"):
+        parse_structure("Cl(alpha | 1, phat[mach]) S^1_3")
+    data = campaign(n=12)
+    cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
+    model = fit_structure(parse_structure("Cl(alpha:4, beta | 1, phat[alpha], da) S^1_3"),
+                          cols, data["Cl"].to_numpy(), prior=None)
+    x = data[list(model.variables)].to_numpy()[::500]
+    z, m = model.split(x)
+    g = model.spline.terms[1].gradient(z)
+    assert np.abs(g[:, 1]).max() < 1e-9          # the phat term depends on alpha only

@@ -183,3 +183,40 @@ def test_errors():
     other = VaryingCoefficientSpace(space, 3).normal_equations()
     with pytest.raises(InputError, match="3 terms"):
         vcs.solve(other)
+
+
+@pytest.mark.parametrize("d, r", [(2, 0), (3, 1)])
+def test_terms_restricted_to_some_variables_do_not_depend_on_the_others(d, r):
+    rng = seeded("vc-dims", d, r)
+    tri = Triangulation.grid([0, 0, 0], [1, 1, 1], (2, 2, 1))
+    space = SplineSpace(tri, d, r)
+    z = rng.random((6000, 3))
+    m = np.column_stack([np.ones(len(z)), rng.uniform(-1, 1, len(z))])
+    y = np.sin(2 * z[:, 0]) * z[:, 1] + np.cos(2 * z[:, 0]) * m[:, 1] \
+        + 0.01 * rng.standard_normal(len(z))
+    fit = VaryingCoefficientSpace(space, 2, [None, (0,)]).fit(z, m, y)
+    zt = rng.random((500, 3))
+    g = fit.terms[1].gradient(zt)
+    assert np.abs(g[:, 1:]).max() < 1e-9            # term 1 depends on z0 only
+    assert np.abs(fit.terms[0].gradient(zt)[:, 1]).max() > 0.1
+    # the conditions hold on every simplex and the fit equals the dense reference with
+    # the term's conditions added
+    from simplexspline.spline.varying import constancy_conditions
+
+    Cc = constancy_conditions(space, (1, 2)).toarray()
+    assert Cc.shape[0] == tri.nsimplex * 2 * ref.num_basis(3, d - 1)
+    assert np.abs(Cc @ fit.coefficients[:, 1, :].ravel()).max() < 1e-9
+    with pytest.raises(InputError, match="one entry per term"):
+        VaryingCoefficientSpace(space, 2, [None])
+    with pytest.raises(InputError, match="out of range"):
+        VaryingCoefficientSpace(space, 2, [None, (5,)])
+
+
+def test_constant_terms_are_one_number():
+    rng = seeded("vc-const")
+    space = SplineSpace(Triangulation.grid([0, 0], [1, 1], (3, 3)), 2, 0)
+    z = rng.random((3000, 2))
+    m = np.column_stack([np.ones(len(z)), rng.uniform(-1, 1, len(z))])
+    y = z[:, 0] ** 2 + 0.7 * m[:, 1]
+    fit = VaryingCoefficientSpace(space, 2, [None, ()]).fit(z, m, y)
+    np.testing.assert_allclose(fit.terms[1].coefficients, 0.7, atol=1e-9)

@@ -184,7 +184,7 @@ def _space(structure: Structure, x: np.ndarray, min_points: int):
                          "constant throughout the identification data: remove them")
     return (scaling, u, (m - offsets) / scales,
             (tuple(float(v) for v in scales), tuple(float(v) for v in offsets)),
-            VaryingCoefficientSpace(space, structure.nterms))
+            VaryingCoefficientSpace(space, structure.nterms, structure.term_dims))
 
 
 def _accumulate(space, u, m, y, weights=None):

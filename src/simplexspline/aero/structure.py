@@ -32,6 +32,7 @@ __all__ = [
     "multiplier_factors",
     "multiplier_jacobian",
     "multiplier_values",
+    "split_multiplier",
     "parse_knots",
     "preset",
     "structures_from_config",
@@ -88,10 +89,16 @@ class Structure:
         if len(set(variables)) != len(variables):
             raise InputError(f"structure of {self.coefficient}: repeated variable in "
                              f"{list(variables)}")
-        mult = tuple("*".join(f.strip() for f in str(m).split("*")) for m in self.multipliers)
-        if len(set(mult)) != len(mult) or any(not f for m in mult for f in m.split("*")):
+        mult = tuple(_normal_multiplier(m) for m in self.multipliers)
+        if len(set(mult)) != len(mult) or any(
+                not f for m in mult for f in split_multiplier(m)[0].split("*")):
             raise InputError(f"structure of {self.coefficient}: repeated or empty multiplier "
                              f"in {list(mult)}")
+        for m in mult:
+            dims = split_multiplier(m)[1]
+            if dims is not None and any(v not in variables for v in dims):
+                raise InputError(f"structure of {self.coefficient}: the term {m!r} may only "
+                                 f"depend on variables of the model {list(variables)}")
         object.__setattr__(self, "multipliers", mult)
         knots = dict(self.knots) if not isinstance(self.knots, Mapping) else self.knots
         clean = []
@@ -142,6 +149,17 @@ class Structure:
     def nterms(self) -> int:
         """Number of spline terms (1 for a plain structure)."""
         return max(1, len(self.multipliers))
+
+    @property
+    def term_dims(self) -> list:
+        """Per term, the indices of the variables it depends on (None: all of them), from
+        multipliers written ``'phat[alpha]'`` or ``'da[alpha/beta]'``."""
+        out = []
+        for m in self.multipliers:
+            dims = split_multiplier(m)[1]
+            out.append(None if dims is None else tuple(self.variables.index(v)
+                                                       for v in dims))
+        return out
 
     @property
     def inputs(self) -> tuple:
@@ -257,10 +275,29 @@ class Structure:
                    tuple(knots.items()))
 
 
+def split_multiplier(name: str) -> tuple:
+    """A multiplier's expression and the variables its term depends on (None: all):
+    ``'phat[alpha]'`` -> ('phat', ('alpha',)), ``'da'`` -> ('da', None)."""
+    expr, bracket, rest = name.partition("[")
+    if not bracket:
+        return name, None
+    if not rest.endswith("]"):
+        raise InputError(f"multiplier {name!r}: write the term's variables as "
+                         "'name[var1/var2]'")
+    return expr, tuple(v.strip() for v in rest[:-1].split("/") if v.strip())
+
+
+def _normal_multiplier(name) -> str:
+    expr, dims = split_multiplier(str(name).strip())
+    expr = "*".join(f.strip() for f in expr.split("*"))
+    return expr if dims is None else f"{expr}[{'/'.join(dims)}]"
+
+
 def multiplier_factors(name: str) -> tuple:
     """The data columns whose product a multiplier is: ``'1'`` -> (), ``'da'`` ->
-    ('da',), ``'beta*beta'`` -> ('beta', 'beta')."""
-    return () if name == "1" else tuple(name.split("*"))
+    ('da',), ``'beta*beta'`` -> ('beta', 'beta'), ``'phat[alpha]'`` -> ('phat',)."""
+    expr = split_multiplier(name)[0]
+    return () if expr == "1" else tuple(expr.split("*"))
 
 
 def multiplier_values(structure: Structure, x: np.ndarray) -> np.ndarray:

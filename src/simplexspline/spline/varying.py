@@ -29,12 +29,19 @@ import scipy.sparse as sp
 
 from simplexspline.errors import InputError, OutsideDomainError
 from simplexspline.spline import kernels
-from simplexspline.spline.bform import basis_values_t, num_basis
+from simplexspline.spline.barycentric import direction_coordinates
+from simplexspline.spline.bform import (
+    basis_values_t,
+    multi_index_lookup,
+    multi_indices,
+    num_basis,
+)
 from simplexspline.spline.normal import BlockSums
 from simplexspline.spline.spline import OUTSIDE_POLICIES, SimplexSpline
 from simplexspline.spline.validation import as_points, as_values, as_weights
 
-__all__ = ["VaryingCoefficientSpace", "VaryingNormalEquations", "VaryingCoefficientSpline"]
+__all__ = ["VaryingCoefficientSpace", "VaryingNormalEquations", "VaryingCoefficientSpline",
+           "constancy_conditions"]
 
 #: Points per chunk when accumulating (bounds the (K d_hat) x chunk temporary).
 CHUNK = 1 << 16
@@ -55,12 +62,45 @@ def _multipliers(m, npts: int, nterms: int) -> np.ndarray:
     return arr
 
 
-class _TermSystem:
-    """The continuity conditions of K independent copies of one space, in the layout the
-    constrained solver expects (``gather``, ``nglobal``, ``A_all``, ``H_full``,
-    ``solver_cache``), for coefficients ordered (simplex, term, basis)."""
+def constancy_conditions(space, dims) -> sp.coo_matrix:
+    """Conditions that make a spline of ``space`` constant along the coordinate axes
+    ``dims``: in every simplex its first derivative along each such axis vanishes (the
+    de Casteljau differences of its B-coefficients in that direction are zero).
 
-    def __init__(self, space, nterms: int):
+    Returns
+    -------
+    scipy.sparse.coo_matrix, shape (J * len(dims) * C(d - 1 + n, n), J * d_hat)
+        Rows on the coefficient vector in Eq. 24 order (simplex-major). Together with the
+        continuity conditions the spline then does not depend on those variables.
+    """
+    tri = space.triangulation
+    n, d, dhat = tri.ndim, space.degree, space.nbasis
+    J = tri.nsimplex
+    dims = [int(e) for e in dims]
+    if d == 0 or not dims:
+        return sp.coo_matrix((0, J * dhat))
+    low = multi_indices(n, d - 1)                                      # (L, n+1)
+    local = multi_index_lookup(low[:, None, :] + np.eye(n + 1, dtype=np.int64)[None], d)
+    L = len(low)
+    lam = direction_coordinates(tri._tinv)                              # (J, n, n+1)
+    rows, cols, vals = [], [], []
+    for q, e in enumerate(dims):
+        a = lam[:, e, :]                                                 # (J, n+1)
+        r = (np.arange(J)[:, None, None] * len(dims) + q) * L + np.arange(L)[None, :, None]
+        rows.append(np.broadcast_to(r, (J, L, n + 1)).ravel())
+        cols.append((np.arange(J)[:, None, None] * dhat + local[None]).ravel())
+        vals.append(np.broadcast_to(a[:, None, :], (J, L, n + 1)).ravel())
+    return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(J * len(dims) * L, J * dhat))
+
+
+class _TermSystem:
+    """The continuity conditions of K copies of one space, in the layout the constrained
+    solver expects (``gather``, ``nglobal``, ``A_all``, ``H_full``, ``solver_cache``), for
+    coefficients ordered (simplex, term, basis); plus, for terms that depend on fewer
+    variables, the conditions that keep them constant along the others."""
+
+    def __init__(self, space, nterms: int, excluded=None):
         from simplexspline.spline.solve import _global_points
 
         base = space.system
@@ -70,15 +110,35 @@ class _TermSystem:
         g = base.gather.reshape(J, 1, dhat)
         self.gather = (np.arange(K)[None, :, None] * M + g).reshape(-1).astype(np.int64)
         self.nglobal = K * M
-        self.A_all = sp.block_diag([base.A_all] * K, format="csr") if base.A_all.shape[0] \
+
+        def per_term(mat: sp.coo_matrix, k: int):
+            """Rows on one term's coefficients (simplex-major) -> rows on all of them."""
+            t, i = mat.col // dhat, mat.col % dhat
+            return mat.row, t * K * dhat + k * dhat + i, mat.data
+
+        blocks = [(base.H_full.tocoo(), k) for k in range(K)]
+        for k, dims in enumerate(excluded or [()] * K):
+            if len(dims):
+                blocks.append((constancy_conditions(space, dims), k))
+        rows, cols, vals, off = [], [], [], 0
+        for mat, k in blocks:
+            r, c, v = per_term(mat, k)
+            rows.append(r + off)
+            cols.append(c)
+            vals.append(v)
+            off += mat.shape[0]
+        self.H_full = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows),
+                                                            np.concatenate(cols))),
+                                    shape=(off, J * K * dhat))
+        A = sp.block_diag([base.A_all] * K, format="csr") if base.A_all.shape[0] \
             else sp.csr_matrix((0, K * M))
-        H = base.H_full.tocoo()
-        R = H.shape[0]
-        t, i = H.col // dhat, H.col % dhat
-        rows = np.concatenate([H.row + k * R for k in range(K)])
-        cols = np.concatenate([t * K * dhat + k * dhat + i for k in range(K)])
-        self.H_full = sp.csr_matrix((np.tile(H.data, K), (rows, cols)),
-                                    shape=(K * R, J * K * dhat))
+        extra = self.H_full[K * base.H_full.shape[0]:].tocoo()
+        if extra.shape[0]:   # the constancy conditions in the C^0-reduced coordinates
+            Ae = sp.csr_matrix((extra.data, (extra.row, self.gather[extra.col])),
+                               shape=(extra.shape[0], K * M))
+            Ae.sum_duplicates()
+            A = sp.vstack([A, Ae]).tocsr()
+        self.A_all = A
         pts = _global_points(tri, space.degree, base.gather, M)
         self.solver_cache: dict = {"points": np.tile(pts, (K, 1))}
 
@@ -193,6 +253,12 @@ class VaryingCoefficientSpace:
         The space of every term (its triangulation is over the scheduling variables).
     nterms : int
         Number K of terms (multipliers), >= 1.
+    term_dims : sequence of (sequence of int or None), optional
+        Per term, the axes of the space it depends on (None: all). A term is held
+        constant along the other axes by extra linear conditions
+        (:func:`constancy_conditions`): e.g. a roll-damping term that depends on alpha
+        only, in a model scheduled on alpha, beta and Mach, has far fewer free
+        coefficients where the data are thin.
 
     Examples
     --------
@@ -208,11 +274,26 @@ class VaryingCoefficientSpace:
     True
     """
 
-    def __init__(self, space, nterms: int):
+    def __init__(self, space, nterms: int, term_dims=None):
         if isinstance(nterms, bool) or not isinstance(nterms, (int, np.integer)) or nterms < 1:
             raise InputError(f"nterms must be an integer >= 1, got {nterms!r}")
         self.space = space
         self.nterms = int(nterms)
+        n = space.ndim
+        if term_dims is None:
+            term_dims = [None] * self.nterms
+        if len(term_dims) != self.nterms:
+            raise InputError(f"term_dims must give one entry per term ({self.nterms}), got "
+                             f"{len(term_dims)}")
+        dims = []
+        for k, td in enumerate(term_dims):
+            td = tuple(range(n)) if td is None else tuple(sorted({int(e) for e in td}))
+            if any(not 0 <= e < n for e in td):
+                raise InputError(f"term {k}: variables {list(td)} out of range for a "
+                                 f"{n}-dimensional space")
+            dims.append(td)
+        #: Per term, the variables (axes) it depends on; constant along the others.
+        self.term_dims = tuple(dims)
 
     def __repr__(self) -> str:
         s = self.space
@@ -230,7 +311,9 @@ class VaryingCoefficientSpace:
 
     @cached_property
     def system(self) -> _TermSystem:
-        return _TermSystem(self.space, self.nterms)
+        n = self.space.ndim
+        excluded = [tuple(e for e in range(n) if e not in td) for td in self.term_dims]
+        return _TermSystem(self.space, self.nterms, excluded)
 
     def normal_equations(self, z=None, m=None, y=None, weights=None) -> VaryingNormalEquations:
         """An accumulator, optionally filled with a first chunk."""
