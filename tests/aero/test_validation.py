@@ -8,7 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from simplexspline.aero.validation import (
+    CONDITION_KEEP,
     autocorrelation,
+    covered_in_fold,
     fold_by_maneuver,
     scores,
     split_by_maneuver,
@@ -67,6 +69,59 @@ def test_split_draws_within_each_maneuver_type():
     val = split_by_maneuver(man, 0.25, groups=kind)
     assert set(kind[val]) == {"sos", "3211"}
     assert len(set(man[val & (kind == "sos")])) == round(0.25 * 10)
+
+
+def _condition_campaign(seed=0):
+    """Maneuvers of 30 flight conditions: per condition one long sum-of-sines (most of
+    its samples) or two, and short 3211s."""
+    rng = np.random.default_rng(seed)
+    man, cond, kind = [], [], []
+    m = 0
+    for c in range(30):
+        plan = ["sos"] * (1 + c % 2) + ["3211"] * int(rng.integers(2, 5))
+        for k in plan:
+            size = 90 if k == "sos" else 10
+            man += [m] * size
+            cond += [c] * size
+            kind += [k] * size
+            m += 1
+    return np.array(man), np.array(cond), np.array(kind)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_split_keeps_every_flight_condition_identified(seed):
+    man, cond, kind = _condition_campaign(seed)
+    val = split_by_maneuver(man, 0.25, seed=seed, groups=kind, conditions=cond)
+    for c in np.unique(cond):
+        at = cond == c
+        assert np.count_nonzero(at & ~val) >= CONDITION_KEEP * np.count_nonzero(at)
+    # the lone sum-of-sines of a condition stays for identification; paired ones may go
+    lone = [c for c in range(30) if c % 2 == 0]
+    assert not (val & (kind == "sos") & np.isin(cond, lone)).any()
+    assert (val & (kind == "sos")).any() and (val & (kind == "3211")).any()
+    # without conditions the split is the plain stratified one, lone maneuvers included
+    plain = [split_by_maneuver(man, 0.25, seed=s, groups=kind) for s in range(10)]
+    assert any((v & (kind == "sos") & np.isin(cond, lone)).any() for v in plain)
+
+
+def test_folds_spread_conditions_and_score_covered_samples():
+    man, cond, kind = _condition_campaign(1)
+    folds = fold_by_maneuver(man, 3, seed=0, conditions=cond)
+    for m in np.unique(man):
+        assert len(np.unique(folds[man == m])) == 1          # whole maneuvers
+    for c in np.unique(cond):
+        n_man = len(np.unique(man[cond == c]))
+        # a condition's maneuvers go to different folds while there are folds left
+        assert len(np.unique(folds[cond == c])) == min(n_man, 3)
+    scored = covered_in_fold(folds, cond)
+    for c in np.unique(cond):
+        for f in range(3):
+            at = (cond == c) & (folds == f)
+            if at.any():
+                kept = np.count_nonzero((cond == c) & (folds != f))
+                assert scored[at].all() == (kept >= CONDITION_KEEP * np.count_nonzero(
+                    cond == c))
+    assert 0.3 < scored.mean() < 1.0
 
 
 def test_split_errors():

@@ -400,8 +400,9 @@ def identify(df, metadata: Mapping | None = None, *,
                               f"of maneuver(s) {mans[:10].tolist()}: drop those maneuvers or "
                               "fill the gaps before identification")
     groups = data["maneuver_type"].to_numpy() if "maneuver_type" in data.columns else None
+    conditions = data["condition"].to_numpy() if "condition" in data.columns else None
     is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
-                               seed=settings.seed, groups=groups)
+                               seed=settings.seed, groups=groups, conditions=conditions)
     ident, valid = data.loc[~is_val].copy(), data.loc[is_val].copy()
     # The metadata live in ``meta``; pandas deep-copies ``attrs`` on every column access
     # (0.26 s each with a campaign's reconstruction record), so the splits carry none.
@@ -456,11 +457,14 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     y = ident[c].to_numpy(dtype=float)
     mans = ident["maneuver"].to_numpy()
     start = _drop_zero_multipliers(start, columns, notes)
+    cond = ident["condition"].to_numpy() if "condition" in ident.columns else None
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
-                                                     settings.selection, seed=settings.seed)
+                                                     settings.selection, seed=settings.seed,
+                                                     conditions=cond)
     if settings.select:
         best, history = select_structure(start, columns, y, mans, settings.selection,
-                                         seed=settings.seed, prior_degree=prior_degree)
+                                         seed=settings.seed, prior_degree=prior_degree,
+                                         conditions=cond)
     else:
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
     model = fit_structure(best, columns, y, min_points=settings.selection.min_points,

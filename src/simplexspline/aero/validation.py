@@ -10,11 +10,19 @@ import numpy as np
 
 from simplexspline.errors import InputError
 
-__all__ = ["autocorrelation", "fold_by_maneuver", "scores", "split_by_maneuver"]
+__all__ = ["CONDITION_KEEP", "autocorrelation", "covered_in_fold", "fold_by_maneuver", "scores",
+           "split_by_maneuver"]
+
+#: Fraction of each flight condition's samples that stays for identification when
+#: validation maneuvers are held out (and in the training folds of a scored
+#: cross-validation fold): validation then measures the model where it was identified.
+CONDITION_KEEP = 0.5
 
 
 def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: int = 0,
-                      groups: np.ndarray | None = None) -> np.ndarray:
+                      groups: np.ndarray | None = None,
+                      conditions: np.ndarray | None = None,
+                      keep: float = CONDITION_KEEP) -> np.ndarray:
     """Choose whole maneuvers for validation.
 
     Parameters
@@ -27,6 +35,14 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     groups : ndarray, shape (N,), optional
         A label per sample (e.g. the maneuver type); maneuvers are drawn in proportion
         within every group so that each kind of maneuver appears in both sets.
+    conditions : ndarray, shape (N,), optional
+        Flight-condition id per sample. A maneuver is held out only while its flight
+        condition keeps at least ``keep`` of its samples for identification, so that every
+        validation maneuver is flown where the model was identified (validation measures
+        the model, not an extrapolation to a condition nobody flew). Where that leaves a
+        group short, it gets fewer validation maneuvers.
+    keep : float
+        Fraction of each flight condition's samples that stays for identification.
 
     Returns
     -------
@@ -36,18 +52,31 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     maneuvers = np.asarray(maneuvers)
     if not 0.0 < fraction < 1.0:
         raise InputError(f"the validation fraction must be in (0, 1), got {fraction!r}")
-    ids, first = np.unique(maneuvers, return_index=True)
+    ids, first, counts = np.unique(maneuvers, return_index=True, return_counts=True)
     if len(ids) < 2:
         raise InputError(f"{len(ids)} maneuver(s) in the data: validation needs at least two "
                          "(one to identify on, one to validate on)")
     rng = np.random.default_rng(seed)
     labels = np.zeros(len(ids), dtype=int) if groups is None else np.unique(
         np.asarray(groups)[first], return_inverse=True)[1]
+    if conditions is None:
+        cond = np.arange(len(ids))
+        room = counts.astype(float)
+    else:
+        cond = np.unique(np.asarray(conditions)[first], return_inverse=True)[1]
+        room = (1.0 - keep) * np.bincount(cond, weights=counts)
     chosen = []
     for g in np.unique(labels):
-        members = ids[labels == g]
+        members = np.flatnonzero(labels == g)
         k = round(fraction * len(members))
-        chosen.extend(rng.permutation(members)[:k].tolist())
+        taken = 0
+        for i in rng.permutation(members):
+            if taken == k:
+                break
+            if counts[i] <= room[cond[i]]:
+                room[cond[i]] -= counts[i]
+                chosen.append(ids[i])
+                taken += 1
     chosen = set(chosen)
     if not chosen:
         chosen = {rng.choice(ids)}
@@ -56,23 +85,68 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     return np.isin(maneuvers, list(chosen))
 
 
-def fold_by_maneuver(maneuvers: np.ndarray, k: int, *, seed: int = 0) -> np.ndarray:
+def fold_by_maneuver(maneuvers: np.ndarray, k: int, *, seed: int = 0,
+                     conditions: np.ndarray | None = None) -> np.ndarray:
     """Fold number (0..k-1) per sample, whole maneuvers per fold (shuffled, balanced by
-    sample count)."""
+    sample count).
+
+    With ``conditions`` (flight-condition id per sample) each condition's maneuvers are
+    spread over the folds, largest first, so that holding out a fold leaves most flight
+    conditions flown in the training folds (as :func:`split_by_maneuver` does for the
+    validation set).
+    """
     maneuvers = np.asarray(maneuvers)
-    ids, inverse, counts = np.unique(maneuvers, return_inverse=True, return_counts=True)
+    ids, first, inverse, counts = np.unique(maneuvers, return_index=True,
+                                            return_inverse=True, return_counts=True)
     if k < 2 or len(ids) < k:
         raise InputError(f"{k}-fold cross-validation needs at least {k} maneuvers, the "
                          f"identification set has {len(ids)}")
     rng = np.random.default_rng(seed)
     order = rng.permutation(len(ids))
+    order = order[np.argsort(-counts[order], kind="stable")]
     load = np.zeros(k)
     fold_of = np.empty(len(ids), dtype=int)
-    for i in order[np.argsort(-counts[order], kind="stable")]:
-        f = int(np.argmin(load))
+    if conditions is None:
+        for i in order:
+            f = int(np.argmin(load))
+            fold_of[i] = f
+            load[f] += counts[i]
+        return fold_of[inverse]
+    cond = np.unique(np.asarray(conditions)[first], return_inverse=True)[1]
+    used = np.zeros((cond.max() + 1, k))  # samples of each condition per fold
+    for i in order:
+        # the fold holding least of this condition, ties to the least loaded fold
+        f = int(np.lexsort((load, used[cond[i]]))[0])
         fold_of[i] = f
         load[f] += counts[i]
+        used[cond[i], f] += counts[i]
     return fold_of[inverse]
+
+
+def covered_in_fold(folds: np.ndarray, conditions: np.ndarray,
+                    keep: float = CONDITION_KEEP) -> np.ndarray:
+    """Samples whose flight condition keeps at least ``keep`` of its samples in the other
+    folds: the held-out samples a cross-validation scores, so that it measures the model
+    where it was identified, as the validation split does (see
+    :func:`split_by_maneuver`).
+
+    Parameters
+    ----------
+    folds : ndarray of int, shape (N,)
+    conditions : ndarray, shape (N,)
+        Flight-condition id per sample.
+    keep : float
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+    """
+    folds = np.asarray(folds)
+    cond = np.unique(np.asarray(conditions), return_inverse=True)[1]
+    table = np.zeros((cond.max() + 1, folds.max() + 1))
+    np.add.at(table, (cond, folds), 1.0)
+    total = table.sum(axis=1)
+    return total[cond] - table[cond, folds] >= keep * total[cond]
 
 
 def autocorrelation(residual: np.ndarray, maneuvers: np.ndarray | None = None,
