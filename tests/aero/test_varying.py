@@ -205,13 +205,34 @@ def test_statistics_are_refused_for_varying_models(model, data):
 
 
 # --------------------------------------------------------------------------- selection
-def test_selection_moves_change_multipliers_not_breakpoints():
+def test_selection_moves_change_multipliers_and_breakpoint_grids():
     s = parse_structure(LABEL)
     moves = dict(_neighbours(s, SelectionSettings(), ["alpha", "beta", "mach", "phat", "da",
                                                       "dr"]))
     assert "add multiplier dr" in moves and "remove multiplier phat" in moves
-    assert not any(m.startswith(("refine alpha", "refine mach", "add dr")) for m in moves)
     assert "refine beta (1->2 cells)" in moves
+    assert not any(m.startswith(("refine alpha (", "add dr")) for m in moves)
+    # breakpoint grids: every other breakpoint dropped, or midpoints inserted
+    coarse = moves["coarsen alpha breakpoints (9->5)"]
+    assert np.allclose(coarse.knots_of["alpha"], ALPHA_KNOTS[::2])
+    assert coarse.knots_of["mach"] == s.knots_of["mach"]
+    fine = moves["refine alpha breakpoints (9->17)"]
+    assert np.allclose(fine.knots_of["alpha"], np.arange(-10, 32.5, 2.5) * D2R)
+    assert "refine mach breakpoints (2->3)" in moves
+    assert not any(m.startswith("coarsen mach") for m in moves)   # two breakpoints only
+    assert parse_structure(coarse.label()) == coarse
+
+
+def test_cross_validation_prefers_the_breakpoints_the_truth_has(data):
+    cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
+    folds = data["maneuver"].to_numpy() % 3
+    y = data["Cl"].to_numpy()
+    s = parse_structure(LABEL)
+    moves = dict(_neighbours(s, SelectionSettings(), list(cols)))
+    good, coarse, fine = (cv_score(x, cols, y, folds, prior="auto")[0] for x in (
+        s, moves["coarsen alpha breakpoints (9->5)"], moves["refine alpha breakpoints (9->17)"]))
+    # the truth kinks every 5 deg: a 10 deg grid misses kinks, a 2.5 deg one adds variance
+    assert good < 0.97 * coarse and good < 0.97 * fine
 
 
 def test_cross_validation_prefers_the_true_multipliers(data):
@@ -348,3 +369,18 @@ def test_multiplier_terms_restricted_to_variables():
     z, m = model.split(x)
     g = model.spline.terms[1].gradient(z)
     assert np.abs(g[:, 1]).max() < 1e-9          # the phat term depends on alpha only
+
+
+def test_cross_validation_scores_only_the_chosen_held_out_samples(data):
+    cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
+    folds = data["maneuver"].to_numpy() % 3
+    y = data["Cl"].to_numpy()
+    s = parse_structure(LABEL)
+    everything = cv_score(s, cols, y, folds)[0]
+    assert cv_score(s, cols, y, folds, scored=np.ones(len(y), bool))[0] == everything
+    # the RMS over a subset is the subset's share of the squared error, refitted alike
+    first = data["maneuver"].to_numpy() < 20
+    a = cv_score(s, cols, y, folds, scored=first)[0]
+    b = cv_score(s, cols, y, folds, scored=~first)[0]
+    n1 = np.count_nonzero(first)
+    assert np.isclose(everything ** 2 * len(y), a ** 2 * n1 + b ** 2 * (len(y) - n1))

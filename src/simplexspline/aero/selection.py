@@ -63,7 +63,8 @@ class SelectionSettings:
     min_points : int
         Simplices holding fewer samples are dropped from the triangulation.
     moves : tuple of str
-        Kinds of moves tried: 'degree', 'resolution', 'variables'.
+        Kinds of moves tried: 'degree', 'resolution' (grid cells; for variables on
+        breakpoints, every other breakpoint dropped or midpoints inserted), 'variables'.
     ridge : float
         Relative ridge weight on the B-coefficients (times the mean diagonal of X'X): a
         tiny value that only decides directions the data and continuity leave
@@ -322,9 +323,12 @@ def _solve(space, ne, ridge: float, smoothing=None):
 
 def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray, *,
              min_points: int = 10, ridge: float = 1e-8, smoothing=None, prior=None,
-             prior_weight: float = PRIOR_WEIGHT,
-             prior_degree: int = 3) -> tuple[float, int, int]:
+             prior_weight: float = PRIOR_WEIGHT, prior_degree: int = 3,
+             scored: np.ndarray | None = None) -> tuple[float, int, int]:
     """k-fold cross-validation RMS (folds = whole maneuvers).
+
+    ``scored`` (bool per sample, optional) limits the RMS to some held-out samples (e.g.
+    :func:`~simplexspline.aero.validation.covered_in_fold`); all are fitted on.
 
     Returns
     -------
@@ -344,6 +348,9 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         c_scaling, cu, cm, c_mscale, c_space = _space(cs, x, min_points)
         c_total, c_parts = _fold_equations(c_space, cu, cm, y, folds, k)
     sse = 0.0
+    scored = np.ones(len(y), dtype=bool) if scored is None else np.asarray(scored, bool)
+    if not scored.any():
+        scored = np.ones(len(y), dtype=bool)
     for f in range(k):
         train = total - parts[f]
         if use_prior:
@@ -352,19 +359,45 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
             train.merge(_prior_equations(structure, space, scaling, mscale, coarse,
                                          prior_weight))
         spline = _solve(space, train, ridge, smoothing)
-        held = folds == f
+        held = (folds == f) & scored
+        if not held.any():
+            continue
         pred = _predict(spline, u[held], None if m is None else m[held])
         sse += float(np.sum((y[held] - pred) ** 2))
-    return float(np.sqrt(sse / len(y))), int(space.dim_coefficients), int(tri.nsimplex)
+    return (float(np.sqrt(sse / np.count_nonzero(scored))), int(space.dim_coefficients),
+            int(tri.nsimplex))
+
+
+def _cv_setup(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
+              settings: SelectionSettings, seed: int, conditions: np.ndarray | None):
+    """Subsampled columns, coefficient, folds and scored-sample mask of a
+    cross-validation, or None with fewer than 2 maneuvers (fewer maneuvers than folds:
+    leave one maneuver out instead)."""
+    from simplexspline.aero.validation import covered_in_fold, fold_by_maneuver
+
+    step = max(1, int(np.ceil(len(y) / settings.max_samples)))
+    cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
+    ys, mans = np.asarray(y, dtype=float)[::step], np.asarray(maneuvers)[::step]
+    k = min(settings.folds, len(np.unique(mans)))
+    if k < 2:
+        return None
+    cond = None if conditions is None else np.asarray(conditions)[::step]
+    folds = fold_by_maneuver(mans, k, seed=seed, conditions=cond)
+    scored = None if cond is None else covered_in_fold(folds, cond)
+    return cols, ys, folds, scored
 
 
 def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
                         maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
-                        seed: int = 0) -> tuple[int, dict]:
+                        seed: int = 0,
+                        conditions: np.ndarray | None = None) -> tuple[int, dict]:
     """The degree of the prior's coarse model (:data:`~simplexspline.aero.prior.
     PRIOR_DEGREES`) with the lowest k-fold cross-validation RMS (folds = maneuvers) of the
     *fine* structure shrunk towards it: the coarse model matters where the fine one's data
     are thin, which is what held-out maneuvers probe.
+
+    ``conditions`` (flight-condition id per sample, optional): see
+    :func:`select_structure`.
 
     Returns
     -------
@@ -373,18 +406,13 @@ def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
     scores : dict
         CV RMS per degree tried.
     """
-    from simplexspline.aero.validation import fold_by_maneuver
-
     settings = settings or SelectionSettings()
     if not _use_prior(structure, settings.prior):
         return 3, {}
-    step = max(1, int(np.ceil(len(y) / settings.max_samples)))
-    cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
-    ys, mans = np.asarray(y, dtype=float)[::step], np.asarray(maneuvers)[::step]
-    k = min(settings.folds, len(np.unique(mans)))
-    if k < 2:
+    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions)
+    if setup is None:
         return 3, {}
-    folds = fold_by_maneuver(mans, k, seed=seed)
+    cols, ys, folds, scored = setup
     scores = {}
     with single_threaded_blas():
         for d in PRIOR_DEGREES:
@@ -392,7 +420,7 @@ def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
                 scores[d] = cv_score(structure, cols, ys, folds, min_points=settings.min_points,
                                      ridge=settings.ridge, smoothing=settings.smoothing,
                                      prior=settings.prior, prior_weight=settings.prior_weight,
-                                     prior_degree=d)[0]
+                                     prior_degree=d, scored=scored)[0]
             except SimplexSplineError:
                 scores[d] = float("inf")
     best = min(scores, key=scores.get)
@@ -412,7 +440,8 @@ def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[s
     if "resolution" in settings.moves:
         for i, v in enumerate(s.variables):
             if v in s.knots_of:
-                continue  # the breakpoints fix the grid along v
+                out.extend(_knot_moves(s, v))
+                continue
             res = list(s.resolution)
             if res[i] < settings.max_resolution:
                 res[i] += 1
@@ -458,6 +487,25 @@ def _neighbours(s: Structure, settings: SelectionSettings, available: Sequence[s
     return out
 
 
+def _knot_moves(s: Structure, v: str) -> list:
+    """Moves of a variable whose grid is given by breakpoints: every other breakpoint
+    dropped (a grid twice as coarse, from three breakpoints up) and midpoints inserted
+    (twice as fine, from two up)."""
+    ks = s.knots_of[v]
+    out = []
+    knots = dict(s.knots_of)
+    if len(ks) >= 3:
+        knots[v] = tuple(ks[::2])
+        out.append((f"coarsen {v} breakpoints ({len(ks)}->{len(knots[v])})",
+                    s.with_(knots=tuple(knots.items()))))
+    if len(ks) >= 2:
+        mid = (np.asarray(ks[:-1]) + np.asarray(ks[1:])) / 2.0
+        knots[v] = tuple(float(k) for k in np.sort(np.r_[ks, mid]))
+        out.append((f"refine {v} breakpoints ({len(ks)}->{len(knots[v])})",
+                    s.with_(knots=tuple(knots.items()))))
+    return out
+
+
 def _size(s: Structure, ranges: Mapping | None = None) -> int:
     return s.size(ranges)
 
@@ -465,7 +513,8 @@ def _size(s: Structure, ranges: Mapping | None = None) -> int:
 def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                      maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
                      seed: int = 0, progress: Callable[[str], None] | None = None,
-                     prior_degree: int = 3) -> tuple[Structure, list]:
+                     prior_degree: int = 3,
+                     conditions: np.ndarray | None = None) -> tuple[Structure, list]:
     """Greedy automatic model structure selection.
 
     Parameters
@@ -485,6 +534,11 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         Called with a short text after each scored structure.
     prior_degree : int
         Degree of the coarse model of the prior (see :func:`choose_prior_degree`).
+    conditions : ndarray, shape (N,), optional
+        Flight-condition id per sample: the folds spread every condition's maneuvers and
+        the CV RMS counts only held-out samples whose condition keeps most of its data in
+        the training folds (:func:`~simplexspline.aero.validation.covered_in_fold`), so
+        that the selection optimises what the validation measures.
 
     Returns
     -------
@@ -493,21 +547,15 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         Every structure tried, in order, with its CV RMS (``inf`` when it failed, with the
         reason in ``error``); the accepted ones have ``accepted=True``.
     """
-    from simplexspline.aero.validation import fold_by_maneuver
-
     settings = settings or SelectionSettings()
     y = np.asarray(y, dtype=float)
     n = len(y)
-    step = max(1, int(np.ceil(n / settings.max_samples)))
-    cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
-    ys, mans = y[::step], np.asarray(maneuvers)[::step]
-    # Fewer maneuvers than folds: leave one maneuver out instead.
-    k = min(settings.folds, len(np.unique(mans)))
-    if k < 2:
+    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions)
+    if setup is None:
         raise InputError("structure selection needs at least 2 identification maneuvers "
                          "for cross-validation; give more maneuvers or use select=False "
                          "(--no-select)")
-    folds = fold_by_maneuver(mans, k, seed=seed)
+    cols, ys, folds, scored = setup
     available = [v for v in cols if np.ptp(np.asarray(cols[v], dtype=float)) > 0]
     ranges = {v: (float(np.min(cols[v])), float(np.max(cols[v]))) for v in available}
     budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
@@ -524,7 +572,8 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
             trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
                 s, cols, ys, folds, min_points=settings.min_points, ridge=settings.ridge,
                 smoothing=settings.smoothing, prior=settings.prior,
-                prior_weight=settings.prior_weight, prior_degree=prior_degree)
+                prior_weight=settings.prior_weight, prior_degree=prior_degree,
+                scored=scored)
         except SimplexSplineError as exc:
             trial.error = str(exc)[:300]
         trial.seconds = time.perf_counter() - t0
