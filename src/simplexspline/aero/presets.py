@@ -56,8 +56,10 @@ VARYING_PRESET = _vc({
 
 #: The varying-coefficient structures with grids on the breakpoints of the JSBSim F-16
 #: tables (prior knowledge of the aerodynamic database's grid: its tables are piecewise
-#: linear, so C^0 quadratic pieces on that grid contain them) and the leading-edge flap
-#: as a multiplier (the simulated FCS moves it in steps).
+#: linear, so C^0 quadratic pieces on that grid contain them), the leading-edge flap
+#: as a multiplier (the simulated FCS moves it in steps) and the mass in all three moments
+#: (the fuel tanks sit below and behind the empty-weight centre of gravity, so fuel burn
+#: moves the moment reference: Cl and Cn pick up the side force times the shift).
 F16_PRESET = _vc({
     "CX": (("alpha", "de", "mach"), ("1", "qhat", "flap", "beta*beta", "qhat*flap"), 2, 0,
            None, {"alpha": _F16_ALPHA, "de": _F16_DE, "mach": (0.81,)}),
@@ -65,11 +67,11 @@ F16_PRESET = _vc({
            {"alpha": _F16_ALPHA, "mach": (0.4,)}),
     "CZ": (("alpha", "de", "mach"), ("1", "qhat", "flap", "beta*beta"), 2, 0, None,
            {"alpha": _F16_ALPHA, "de": _F16_DE, "mach": (0.81,)}),
-    "Cl": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr"), 2, 0, None,
+    "Cl": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr", "mass"), 2, 0, None,
            {"alpha": _F16_ALPHA, "beta": _F16_BETA, "mach": (0.6, 0.8)}),
     "Cm": (("alpha", "de", "mach"), ("1", "qhat", "flap", "mass"), 2, 0, None,
            {"alpha": _F16_ALPHA, "de": _F16_DE, "mach": (0.6, 0.8, 0.9)}),
-    "Cn": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr"), 2, 0, None,
+    "Cn": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr", "mass"), 2, 0, None,
            {"alpha": _F16_ALPHA, "beta": _F16_BETA, "mach": (0.6, 0.7, 0.8, 0.9)}),
 })
 
