@@ -105,7 +105,7 @@ def test_split_keeps_every_flight_condition_identified(seed):
 
 
 def test_folds_spread_conditions_and_score_covered_samples():
-    man, cond, kind = _condition_campaign(1)
+    man, cond, _kind = _condition_campaign(1)
     folds = fold_by_maneuver(man, 3, seed=0, conditions=cond)
     for m in np.unique(man):
         assert len(np.unique(folds[man == m])) == 1          # whole maneuvers

@@ -12,7 +12,8 @@ from simplexspline import InputError
 from simplexspline.aero.config import parse_structure
 from simplexspline.aero.export import generate_aero_c, lookup_table
 from simplexspline.aero.model import AeroModel
-from simplexspline.aero.selection import SelectionSettings, _neighbours, cv_score, fit_structure
+from simplexspline.aero.moves import neighbours
+from simplexspline.aero.selection import SelectionSettings, cv_score, fit_structure
 from simplexspline.aero.structure import Scaling, Structure, format_knots, parse_knots
 
 D2R = np.pi / 180.0
@@ -207,7 +208,7 @@ def test_statistics_are_refused_for_varying_models(model, data):
 # --------------------------------------------------------------------------- selection
 def test_selection_moves_change_multipliers_and_breakpoint_grids():
     s = parse_structure(LABEL)
-    moves = dict(_neighbours(s, SelectionSettings(), ["alpha", "beta", "mach", "phat", "da",
+    moves = dict(neighbours(s, SelectionSettings(), ["alpha", "beta", "mach", "phat", "da",
                                                       "dr"]))
     assert "add multiplier dr" in moves and "remove multiplier phat" in moves
     assert "refine beta (1->2 cells)" in moves
@@ -228,7 +229,7 @@ def test_cross_validation_prefers_the_breakpoints_the_truth_has(data):
     folds = data["maneuver"].to_numpy() % 3
     y = data["Cl"].to_numpy()
     s = parse_structure(LABEL)
-    moves = dict(_neighbours(s, SelectionSettings(), list(cols)))
+    moves = dict(neighbours(s, SelectionSettings(), list(cols)))
     good, coarse, fine = (cv_score(x, cols, y, folds, prior="auto")[0] for x in (
         s, moves["coarsen alpha breakpoints (9->5)"], moves["refine alpha breakpoints (9->17)"]))
     # the truth kinks every 5 deg: a 10 deg grid misses kinks, a 2.5 deg one adds variance
