@@ -329,7 +329,8 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
     """k-fold cross-validation RMS (folds = whole maneuvers).
 
     ``scored`` (bool per sample, optional) limits the RMS to some held-out samples (e.g.
-    :func:`~simplexspline.aero.validation.covered_in_fold`); all are fitted on.
+    :func:`~simplexspline.aero.validation.covered_in_fold`); all are fitted on. A mask
+    with no sample set scores all of them (no fold can then be judged on covered data).
 
     Returns
     -------
@@ -353,6 +354,9 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
     if not scored.any():
         scored = np.ones(len(y), dtype=bool)
     for f in range(k):
+        held = (folds == f) & scored
+        if not held.any():
+            continue  # nothing of this fold is scored: skip its solve
         train = total - parts[f]
         if use_prior:
             c_spline = _solve(c_space, c_total - c_parts[f], ridge)
@@ -360,9 +364,6 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
             train.merge(_prior_equations(structure, space, scaling, mscale, coarse,
                                          prior_weight))
         spline = _solve(space, train, ridge, smoothing)
-        held = (folds == f) & scored
-        if not held.any():
-            continue
         pred = _predict(spline, u[held], None if m is None else m[held])
         sse += float(np.sum((y[held] - pred) ** 2))
     return (float(np.sqrt(sse / np.count_nonzero(scored))), int(space.dim_coefficients),
