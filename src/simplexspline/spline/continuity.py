@@ -30,7 +30,14 @@ from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 
 from simplexspline.spline.bform import basis_values, multi_index_lookup, multi_indices, num_basis
 
-__all__ = ["smoothness_matrix", "SmoothnessSystem", "conditions_per_facet", "build_conditions"]
+__all__ = [
+    "SmoothnessSystem",
+    "build_conditions",
+    "cell_facets",
+    "conditions_per_facet",
+    "plane_facets",
+    "smoothness_matrix",
+]
 
 #: A higher-order condition is redundant when Gaussian elimination against the conditions
 #: kept before it leaves no entry above this fraction of its largest original entry.
@@ -40,6 +47,43 @@ RANK_TOL = 1e-9
 def conditions_per_facet(n: int, d: int, r: int) -> int:
     """Number R of C^r conditions across one facet (paper Eq. 22)."""
     return sum(comb(d - m + n - 1, n - 1) for m in range(r + 1))
+
+
+def cell_facets(tri) -> np.ndarray:
+    """Which interior facets lie inside the cells of a grid triangulation.
+
+    A facet of a Kuhn (Freudenthal) grid triangulation either lies on a grid plane (all
+    its vertices share one coordinate) or cuts through a cell (no coordinate is shared).
+
+    Returns
+    -------
+    ndarray of bool, shape (F,)
+        True for the facets inside cells (``triangulation.facets`` order). Meaningful for
+        grid triangulations only (:meth:`Triangulation.grid`, :meth:`Triangulation.fit`).
+    """
+    fv = np.asarray(tri.vertices)[tri.facets.vertices]                   # (F, n, n)
+    if not len(fv):
+        return np.zeros(0, dtype=bool)
+    span = fv.max(axis=1) - fv.min(axis=1)                              # (F, n)
+    scale = np.ptp(np.asarray(tri.vertices), axis=0)
+    return ~np.any(span <= 1e-12 * np.where(scale > 0, scale, 1.0), axis=1)
+
+
+def plane_facets(tri, axis: int, values, tol: float = 1e-9) -> np.ndarray:
+    """Which interior facets lie in one of the hyperplanes ``x[axis] = value``.
+
+    Returns
+    -------
+    ndarray of bool, shape (F,)
+        True for facets all of whose vertices have coordinate ``axis`` within ``tol``
+        of one of ``values``.
+    """
+    values = np.atleast_1d(np.asarray(values, dtype=float))
+    fv = np.asarray(tri.vertices)[tri.facets.vertices][:, :, axis]       # (F, n)
+    if not len(fv) or not len(values):
+        return np.zeros(len(fv), dtype=bool)
+    flat = np.ptp(fv, axis=1) <= tol
+    return flat & np.any(np.abs(fv[:, :1] - values[None, :]) <= tol, axis=1)
 
 
 def _shared_indices(n_shared: int, deg: int) -> np.ndarray:
@@ -55,42 +99,66 @@ class Conditions:
     matrix: sp.csr_matrix  # (E*R, J*d_hat)
     order: np.ndarray  # (E*R,) the m of each row
     pairs0: np.ndarray  # (E*R0, 2) the two columns equated by each C^0 row
+    facet: np.ndarray = None  # (E*R,) the interior facet (tri.facets index) of each row
 
 
-def build_conditions(tri, d: int, r: int) -> Conditions:
-    """All C^r conditions across every interior facet of ``tri`` (unreduced)."""
+def build_conditions(tri, d: int, r: int, facet_orders=None, out_points=None) -> Conditions:
+    """All C^r conditions across every interior facet of ``tri`` (unreduced).
+
+    ``facet_orders`` (shape (F,), optional) gives each interior facet its own continuity
+    order instead (-1..d; d: the two pieces are one polynomial); ``r`` is then unused.
+
+    ``out_points`` (shape (F, n), optional) replaces the out-of-facet vertex sigma of
+    ``facets.simplices[:, 0]`` in the conditions by another point ``S(sigma)``, for maps
+    ``S`` that are affine and fix the facet (a stretch across it): the conditions then join
+    ``p_a`` to ``p_b o S`` instead of ``p_b`` (smoothness in coordinates that are
+    stretched differently on the two sides, e.g. a piecewise-linear variable scaling).
+    """
     n = tri.ndim
     dhat = num_basis(n, d)
     ncols = tri.nsimplex * dhat
     facets = tri.facets
-    nf = len(facets)
-    if r < 0 or nf == 0:
+    orders_f = np.full(len(facets), r, dtype=np.int64) if facet_orders is None else \
+        np.asarray(facet_orders, dtype=np.int64)
+    sel = np.nonzero(orders_f >= 0)[0]
+    nf = len(sel)
+    if nf == 0:
         empty = sp.csr_matrix((0, ncols))
-        return Conditions(empty, np.empty(0, dtype=np.int64), np.empty((0, 2), dtype=np.int64))
-    ta, tb = facets.simplices[:, 0], facets.simplices[:, 1]
-    pa = facets.out_positions[:, 0]
+        return Conditions(empty, np.empty(0, dtype=np.int64), np.empty((0, 2), dtype=np.int64),
+                          np.empty(0, dtype=np.int64))
+    ta, tb = facets.simplices[sel, 0], facets.simplices[sel, 1]
+    pa = facets.out_positions[sel, 0]
+    fverts = facets.vertices[sel]
+    orders_f = orders_f[sel]
     simp = tri.simplices
     # Local positions of the shared (sorted) facet vertices in each simplex: (F, n).
-    pos_a = np.argmax(simp[ta][:, None, :] == facets.vertices[:, :, None], axis=2)
-    pos_b = np.argmax(simp[tb][:, None, :] == facets.vertices[:, :, None], axis=2)
-    bsig = tri.out_vertex_coordinates()  # (F, n+1) in t_b's local order
-    rows, cols, vals, orders = [], [], [], []
-    pairs0 = None
+    pos_a = np.argmax(simp[ta][:, None, :] == fverts[:, :, None], axis=2)
+    pos_b = np.argmax(simp[tb][:, None, :] == fverts[:, :, None], axis=2)
+    if out_points is None:
+        bsig_all = tri.out_vertex_coordinates()[sel]  # (F, n+1) in t_b's local order
+    else:
+        bsig_all = tri.barycentric(np.asarray(out_points, dtype=float)[sel], tb)
+    rows, cols, vals, orders, facet_of = [], [], [], [], []
+    pairs0 = np.empty((0, 2), dtype=np.int64)
     nrow = 0
-    fidx = np.arange(nf)[:, None, None]
-    for m in range(r + 1):
+    for m in range(int(orders_f.max()) + 1):
+        on = orders_f >= m       # the facets with conditions of this order
+        nf = int(on.sum())
+        fidx = np.arange(nf)[:, None, None]
+        ta_m, tb_m, pa_m, bsig = ta[on], tb[on], pa[on], bsig_all[on]
+        pos_am, pos_bm = pos_a[on], pos_b[on]
         kp = _shared_indices(n, d - m)  # (R_m, n)
         rm = len(kp)
         ridx = np.arange(rm)[None, :, None]
         ka = np.zeros((nf, rm, n + 1), dtype=np.int64)
-        ka[fidx, ridx, pos_a[:, None, :]] = kp[None]
-        ka[np.arange(nf)[:, None], np.arange(rm)[None, :], pa[:, None]] = m
+        ka[fidx, ridx, pos_am[:, None, :]] = kp[None]
+        ka[np.arange(nf)[:, None], np.arange(rm)[None, :], pa_m[:, None]] = m
         kb = np.zeros((nf, rm, n + 1), dtype=np.int64)
-        kb[fidx, ridx, pos_b[:, None, :]] = kp[None]
+        kb[fidx, ridx, pos_bm[:, None, :]] = kp[None]
         gam = np.asarray(multi_indices(n, m))  # (G_m, n+1) in t_b's local order
         kbg = kb[:, :, None, :] + gam[None, None]  # (F, R_m, G_m, n+1)
-        col_a = ta[:, None] * dhat + multi_index_lookup(ka, d)  # (F, R_m)
-        col_b = tb[:, None, None] * dhat + multi_index_lookup(kbg, d)  # (F, R_m, G_m)
+        col_a = ta_m[:, None] * dhat + multi_index_lookup(ka, d)  # (F, R_m)
+        col_b = tb_m[:, None, None] * dhat + multi_index_lookup(kbg, d)  # (F, R_m, G_m)
         coef = basis_values(bsig, m)  # (F, G_m)
         row_id = nrow + np.arange(nf * rm).reshape(nf, rm)
         gm = gam.shape[0]
@@ -98,6 +166,7 @@ def build_conditions(tri, d: int, r: int) -> Conditions:
         cols += [col_a.ravel(), col_b.ravel()]
         vals += [np.ones(nf * rm), -np.broadcast_to(coef[:, None, :], (nf, rm, gm)).ravel()]
         orders.append(np.full(nf * rm, m, dtype=np.int64))
+        facet_of.append(np.repeat(sel[on], rm))
         if m == 0:
             pairs0 = np.stack([col_a.ravel(), col_b[:, :, 0].ravel()], axis=1)
         nrow += nf * rm
@@ -105,7 +174,7 @@ def build_conditions(tri, d: int, r: int) -> Conditions:
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
         shape=(nrow, ncols),
     )
-    return Conditions(mat, np.concatenate(orders), pairs0)
+    return Conditions(mat, np.concatenate(orders), pairs0, np.concatenate(facet_of))
 
 
 class SmoothnessSystem:

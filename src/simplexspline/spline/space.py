@@ -35,6 +35,12 @@ class SplineSpace:
         Polynomial degree d >= 0.
     continuity : int
         Continuity order r, ``-1 <= r < d`` (-1: pieces independent).
+    facet_continuity : array_like of int, shape (F,), optional
+        A continuity order per interior facet (``triangulation.facets`` order), each
+        between ``continuity`` and ``d``; ``d`` across a facet makes its two pieces one
+        polynomial. :func:`~simplexspline.spline.continuity.cell_facets` finds the facets
+        inside the cells of a grid triangulation: with ``d`` there, the spline is one
+        polynomial per grid cell, joined C^r across the grid planes.
 
     Examples
     --------
@@ -48,13 +54,26 @@ class SplineSpace:
     True
     """
 
-    def __init__(self, triangulation, degree: int, continuity: int):
+    def __init__(self, triangulation, degree: int, continuity: int, facet_continuity=None):
         self.triangulation = triangulation
         self.degree, self.continuity = check_degree(degree, continuity)
+        self.facet_continuity = None
+        if facet_continuity is not None:
+            fc = np.asarray(facet_continuity)
+            nf = len(triangulation.facets)
+            if fc.shape != (nf,) or not np.issubdtype(fc.dtype, np.integer):
+                raise InputError(f"facet_continuity must be {nf} integers (one per interior "
+                                 f"facet), got shape {fc.shape} of {fc.dtype}")
+            if nf and (fc.min() < self.continuity or fc.max() > self.degree):
+                raise InputError(f"facet_continuity must lie between the continuity "
+                                 f"{self.continuity} and the degree {self.degree}, got "
+                                 f"{int(fc.min())}..{int(fc.max())}")
+            self.facet_continuity = fc.astype(np.int64)
 
     def __repr__(self) -> str:
+        mixed = "" if self.facet_continuity is None else ", mixed facet continuity"
         return (f"SplineSpace(S^{self.continuity}_{self.degree}, ndim={self.ndim}, "
-                f"nsimplex={self.triangulation.nsimplex})")
+                f"nsimplex={self.triangulation.nsimplex}{mixed})")
 
     @property
     def ndim(self) -> int:
@@ -79,7 +98,8 @@ class SplineSpace:
     @cached_property
     def system(self) -> SmoothnessSystem:
         """The reduced smoothness system (built on first use, then cached)."""
-        cond = build_conditions(self.triangulation, self.degree, self.continuity)
+        cond = build_conditions(self.triangulation, self.degree, self.continuity,
+                                self.facet_continuity)
         return reduce_rows(cond, self.dim_coefficients)
 
     @property

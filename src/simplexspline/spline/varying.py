@@ -100,7 +100,8 @@ class _TermSystem:
     coefficients ordered (simplex, term, basis); plus, for terms that depend on fewer
     variables, the conditions that keep them constant along the others."""
 
-    def __init__(self, space, nterms: int, excluded=None):
+    def __init__(self, space, nterms: int, excluded=None, facets=None):
+        from simplexspline.spline.continuity import build_conditions
         from simplexspline.spline.solve import _global_points
 
         base = space.system
@@ -120,6 +121,16 @@ class _TermSystem:
         for k, dims in enumerate(excluded or [()] * K):
             if len(dims):
                 blocks.append((constancy_conditions(space, dims), k))
+        base_orders = space.facet_continuity if space.facet_continuity is not None else \
+            np.full(len(tri.facets), space.continuity)
+        for k, join in enumerate(facets or [None] * K):
+            mask, points = join if isinstance(join, tuple) else (join, None)
+            if mask is not None and np.any(mask & (base_orders < space.degree)):
+                # one polynomial across these facets: the orders the space lacks there
+                cond = build_conditions(tri, space.degree, -1,
+                                        np.where(mask, space.degree, -1), points)
+                rows = np.nonzero(cond.order > base_orders[cond.facet])[0]
+                blocks.append((cond.matrix[rows].tocoo(), k))
         rows, cols, vals, off = [], [], [], 0
         for mat, k in blocks:
             r, c, v = per_term(mat, k)
@@ -259,6 +270,15 @@ class VaryingCoefficientSpace:
         (:func:`constancy_conditions`): e.g. a roll-damping term that depends on alpha
         only, in a model scheduled on alpha, beta and Mach, has far fewer free
         coefficients where the data are thin.
+    term_facets : sequence of (None, bool array (F,), or (bool array (F,), array (F, n))),
+        optional
+        Per term, interior facets across which it is one polynomial (e.g. the grid planes
+        of breakpoints a term's table does not have; see
+        :func:`~simplexspline.spline.continuity.plane_facets`). With a second array of
+        points, the term's pieces are joined through the stretch that maps each facet's
+        out-of-facet vertex to that point (``out_points`` of
+        :func:`~simplexspline.spline.continuity.build_conditions`): one polynomial in
+        coordinates scaled differently on the two sides.
 
     Examples
     --------
@@ -274,7 +294,7 @@ class VaryingCoefficientSpace:
     True
     """
 
-    def __init__(self, space, nterms: int, term_dims=None):
+    def __init__(self, space, nterms: int, term_dims=None, term_facets=None):
         if isinstance(nterms, bool) or not isinstance(nterms, (int, np.integer)) or nterms < 1:
             raise InputError(f"nterms must be an integer >= 1, got {nterms!r}")
         self.space = space
@@ -294,6 +314,30 @@ class VaryingCoefficientSpace:
             dims.append(td)
         #: Per term, the variables (axes) it depends on; constant along the others.
         self.term_dims = tuple(dims)
+        nf = len(space.triangulation.facets)
+        if term_facets is None:
+            term_facets = [None] * self.nterms
+        if len(term_facets) != self.nterms:
+            raise InputError(f"term_facets must give one entry per term ({self.nterms}), "
+                             f"got {len(term_facets)}")
+        joins = []
+        for k, tf in enumerate(term_facets):
+            mask, points = tf if isinstance(tf, tuple) else (tf, None)
+            if mask is not None:
+                mask = np.asarray(mask)
+                if mask.shape != (nf,) or mask.dtype != bool:
+                    raise InputError(f"term {k}: term_facets must be None or {nf} booleans "
+                                     f"(one per interior facet), got {mask.dtype} "
+                                     f"{mask.shape}")
+            if points is not None:
+                points = np.asarray(points, dtype=float)
+                if mask is None or points.shape != (nf, n) or not np.all(np.isfinite(points)):
+                    raise InputError(f"term {k}: the stretched out-of-facet points must be "
+                                     f"finite, shape ({nf}, {n}), with a facet mask")
+            joins.append(mask if points is None else (mask, points))
+        #: Per term, None or the interior facets across which it is one polynomial (a
+        #: mask, or (mask, stretched out-of-facet points), see ``term_facets``).
+        self.term_facets = tuple(joins)
 
     def __repr__(self) -> str:
         s = self.space
@@ -313,7 +357,7 @@ class VaryingCoefficientSpace:
     def system(self) -> _TermSystem:
         n = self.space.ndim
         excluded = [tuple(e for e in range(n) if e not in td) for td in self.term_dims]
-        return _TermSystem(self.space, self.nterms, excluded)
+        return _TermSystem(self.space, self.nterms, excluded, self.term_facets)
 
     def normal_equations(self, z=None, m=None, y=None, weights=None) -> VaryingNormalEquations:
         """An accumulator, optionally filled with a first chunk."""
