@@ -66,7 +66,7 @@ from simplexspline.errors import InputError
 __all__ = ["load_config", "parse_structure", "settings_from_config"]
 
 _LABEL = re.compile(r"^\s*(?P<coef>\w+)\s*\((?P<vars>[^)]*)\)\s*(?:S\^(?P<r>-?\d+)_(?P<d>\d+))?"
-                    r"\s*$")
+                    r"(?P<cellwise>\s+cellwise)?\s*$")
 _SHORT = re.compile(r"^\s*(?P<coef>\w+)\s*=\s*(?P<vars>.+?)\s*$")
 
 
@@ -113,7 +113,7 @@ def parse_structure(text: str) -> Structure:
     degree = int(groups["d"]) if groups.get("d") else 3
     continuity = int(groups["r"]) if groups.get("r") else min(1, degree - 1)
     return Structure(coef, tuple(variables), degree, continuity, tuple(resolution),
-                     multipliers, tuple(knots.items()))
+                     multipliers, tuple(knots.items()), bool(groups.get("cellwise")))
 
 
 def _read_toml(path: Path) -> dict:

@@ -1,5 +1,5 @@
 """The moves of the greedy structure search: from one structure to its neighbours (degree,
-grid cells or breakpoints, variables or multipliers)."""
+grid cells or breakpoints, one polynomial per cell or not, variables or multipliers)."""
 
 from __future__ import annotations
 
@@ -24,6 +24,9 @@ def neighbours(s: Structure, settings, available: Sequence[str]):
             out.append((f"degree {s.degree}->{d}",
                         s.with_(degree=d, continuity=min(s.continuity, d - 1))))
     if "resolution" in settings.moves:
+        if s.degree > 0:   # one polynomial per grid cell, or the Kuhn diagonals as breaks
+            out.append(("cellwise off" if s.cellwise else "cellwise on",
+                        s.with_(cellwise=not s.cellwise)))
         for i, v in enumerate(s.variables):
             if v in s.knots_of:
                 out.extend(knot_moves(s, v))

@@ -23,12 +23,12 @@ PAPER_PRESET = {
 }
 
 
-def _vc(label_parts: dict) -> dict:
+def _vc(label_parts: dict, cellwise: bool = False) -> dict:
     """Varying-coefficient structures from (variables, multipliers, degree, continuity,
     resolution, knots) per coefficient."""
     out = {}
     for c, (variables, mult, d, r, res, knots) in label_parts.items():
-        out[c] = Structure(c, variables, d, r, res or (), mult, tuple(knots.items()))
+        out[c] = Structure(c, variables, d, r, res or (), mult, tuple(knots.items()), cellwise)
     return out
 
 
@@ -56,7 +56,8 @@ VARYING_PRESET = _vc({
 
 #: The varying-coefficient structures with grids on the breakpoints of the JSBSim F-16
 #: tables (prior knowledge of the aerodynamic database's grid: its tables are piecewise
-#: linear, so C^0 quadratic pieces on that grid contain them), the leading-edge flap
+#: bilinear, so C^0 quadratics, one per grid cell, contain them; the aileron and rudder
+#: derivatives of Cl are tabulated every 10 deg of sideslip, the rest every 5), the leading-edge flap
 #: as a multiplier (the simulated FCS moves it in steps) and the mass in all three moments
 #: (the fuel tanks sit below and behind the empty-weight centre of gravity, so fuel burn
 #: moves the moment reference: Cl and Cn pick up the side force times the shift).
@@ -67,13 +68,14 @@ F16_PRESET = _vc({
            {"alpha": _F16_ALPHA, "mach": (0.4,)}),
     "CZ": (("alpha", "de", "mach"), ("1", "qhat", "flap", "beta*beta"), 2, 0, None,
            {"alpha": _F16_ALPHA, "de": _F16_DE, "mach": (0.81,)}),
-    "Cl": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr", "mass"), 2, 0, None,
+    "Cl": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da{beta@-30:30:10deg}",
+                                         "dr{beta@-30:30:10deg}", "mass"), 2, 0, None,
            {"alpha": _F16_ALPHA, "beta": _F16_BETA, "mach": (0.6, 0.8)}),
     "Cm": (("alpha", "de", "mach"), ("1", "qhat", "flap", "mass"), 2, 0, None,
            {"alpha": _F16_ALPHA, "de": _F16_DE, "mach": (0.6, 0.8, 0.9)}),
     "Cn": (("alpha", "beta", "mach"), ("1", "phat", "rhat", "da", "dr", "mass"), 2, 0, None,
            {"alpha": _F16_ALPHA, "beta": _F16_BETA, "mach": (0.6, 0.7, 0.8, 0.9)}),
-})
+}, cellwise=True)
 
 #: Named presets.
 PRESETS = {"paper": PAPER_PRESET, "varying": VARYING_PRESET, "f16": F16_PRESET}

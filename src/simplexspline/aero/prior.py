@@ -8,7 +8,8 @@ with one weight for the whole model (GCV) cannot fix this, because the thin regi
 too few samples to matter to the global criterion.
 
 Instead the fine fit gets *virtual samples* of a coarse model of the same variables and
-multipliers (one grid cell per variable, C^1, no breakpoints; its degree, 2, 3 or 4, chosen
+multipliers (one grid cell, no breakpoints, one polynomial when the fine model is
+``cellwise``; its degree, 2, 3 or 4, chosen
 by cross-validation over maneuvers of the fine model): in every simplex, at fixed
 interior points (the B-net of degree d + 1 pulled 10 % towards the centroid) and for every
 term, the coarse model's term value, each with a small weight ``w`` relative to a real
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from simplexspline.aero.notation import parse_multiplier
 from simplexspline.aero.structure import Structure
 from simplexspline.spline.bform import bnet_points
 
@@ -44,10 +46,19 @@ PRIOR_DEGREES = (2, 3, 4)
 
 
 def coarse_structure(structure: Structure, degree: int = 3) -> Structure:
-    """The coarse model a structure is shrunk towards: its variables and multipliers, one
-    grid cell per variable, no breakpoints, the given degree, C^1 (C^0 for degree 1)."""
+    """The coarse model a structure is shrunk towards: its variables and multipliers (without
+    their own breakpoints), one grid cell per variable, no breakpoints, the given degree,
+    C^1 (C^0 for degree 1); ``cellwise`` like the structure: then one polynomial over the
+    whole box."""
+    mult = tuple(_without_knots(m) for m in structure.multipliers)
     return Structure(structure.coefficient, structure.variables, degree, min(1, degree - 1),
-                     (1,) * structure.ndim, structure.multipliers)
+                     (1,) * structure.ndim, mult, cellwise=structure.cellwise)
+
+
+def _without_knots(multiplier: str) -> str:
+    """A multiplier without its own breakpoints (the coarse model has none)."""
+    expr, dims, _ = parse_multiplier(multiplier)
+    return expr if dims is None else f"{expr}[{'/'.join(dims)}]"
 
 
 def virtual_samples(structure: Structure, triangulation, schedule_scaling, mscale,

@@ -33,6 +33,7 @@ from simplexspline.aero.prior import (
 )
 from simplexspline.aero.structure import Scaling, Structure, multiplier_values
 from simplexspline.errors import InputError, SimplexSplineError
+from simplexspline.spline.continuity import cell_facets, plane_facets
 from simplexspline.spline.space import SplineSpace
 from simplexspline.spline.triangulation import Triangulation
 from simplexspline.spline.varying import VaryingCoefficientSpace
@@ -65,7 +66,8 @@ class SelectionSettings:
         Simplices holding fewer samples are dropped from the triangulation.
     moves : tuple of str
         Kinds of moves tried: 'degree', 'resolution' (grid cells; for variables on
-        breakpoints, every other breakpoint dropped or midpoints inserted), 'variables'.
+        breakpoints, every other breakpoint dropped or midpoints inserted; ``cellwise``
+        on or off), 'variables'.
     ridge : float
         Relative ridge weight on the B-coefficients (times the mean diagonal of X'X): a
         tiny value that only decides directions the data and continuity leave
@@ -171,7 +173,9 @@ def _space(structure: Structure, x: np.ndarray, min_points: int):
         tri = Triangulation.fit(u, res, min_points=min_points)
     else:  # the whole grid, empty simplices included (a prior must determine them)
         tri = Triangulation.grid(np.zeros(n), np.ones(n), res)
-    space = SplineSpace(tri, structure.degree, structure.continuity)
+    orders = np.where(cell_facets(tri), structure.degree, structure.continuity) \
+        if structure.cellwise else None
+    space = SplineSpace(tri, structure.degree, structure.continuity, orders)
     if not structure.varying:
         return scaling, u, None, ((), ()), space
     m = multiplier_values(structure, x)
@@ -186,7 +190,41 @@ def _space(structure: Structure, x: np.ndarray, min_points: int):
                          "constant throughout the identification data: remove them")
     return (scaling, u, (m - offsets) / scales,
             (tuple(float(v) for v in scales), tuple(float(v) for v in offsets)),
-            VaryingCoefficientSpace(space, structure.nterms, structure.term_dims))
+            VaryingCoefficientSpace(space, structure.nterms, structure.term_dims,
+                                    _term_facets(structure, scaling, tri)))
+
+
+def _term_facets(structure: Structure, scaling: Scaling, tri) -> list | None:
+    """Per term, None or (facets, stretched out-of-facet points): the facets on the grid
+    planes of the model's breakpoints that the term's own breakpoints leave out, across
+    which the term is one polynomial *in physical units* (the scaling's cells on the two
+    sides of such a plane may differ in width: the out-of-facet vertex is moved by the
+    ratio of the widths, see ``build_conditions``)."""
+    if not any(structure.term_knots):
+        return None
+    sc = scaling.subset(structure.variables)
+    facets = tri.facets
+    verts = np.asarray(tri.vertices)
+    sigma = verts[np.asarray(tri.simplices)[facets.simplices[:, 0], facets.out_positions[:, 0]]]
+    out = []
+    for own in structure.term_knots:
+        mask, points = np.zeros(len(facets), dtype=bool), sigma.copy()
+        for v, keep in own.items():
+            i = structure.variables.index(v)
+            used = np.asarray(sc.knots[i], dtype=float)      # ends and breakpoints in use
+            m = len(used) - 1
+            for j in range(1, m):
+                if np.any(np.abs(np.asarray(keep) - used[j]) <= 1e-9 * (1 + abs(used[j]))):
+                    continue
+                on = plane_facets(tri, i, [j / m])
+                below, above = used[j] - used[j - 1], used[j + 1] - used[j]
+                du = sigma[on, i] - j / m                  # sigma's side of the plane
+                ratio = np.where(du < 0, below / above, above / below)
+                points[on, i] = j / m + du * ratio
+                mask |= on
+        out.append((mask, points) if mask.any() else None)
+    return out
+
 
 
 def _accumulate(space, u, m, y, weights=None):

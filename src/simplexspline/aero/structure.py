@@ -18,6 +18,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from simplexspline.aero.notation import (
+    format_knots,
+    multiplier_factors,
+    normal_multiplier,
+    parse_knots,
+    parse_multiplier,
+    split_multiplier,
+)
 from simplexspline.errors import InputError
 
 __all__ = [
@@ -73,6 +81,15 @@ class Structure:
         Continuity order ``r`` between simplices (-1 <= r < d).
     resolution : tuple of int
         Grid cells along each variable (same length as ``variables``; default all 1).
+    multipliers : tuple of str, optional
+        Terms of a varying-coefficient structure (see :mod:`simplexspline.aero.notation`).
+    knots : tuple of (str, tuple of float), optional
+        Interior breakpoints per variable (physical units): the grid lines.
+    cellwise : bool, default False
+        One polynomial per grid cell: the simplices of a cell are joined C^d (the Kuhn
+        diagonals are no breaks), the cells C^r across the grid planes. Piecewise
+        multilinear tables on the grid still lie in the space (for d >= number of
+        variables that a table couples), with far fewer coefficients.
     """
 
     coefficient: str
@@ -82,6 +99,7 @@ class Structure:
     resolution: tuple = field(default=())
     multipliers: tuple = field(default=())
     knots: tuple = field(default=())
+    cellwise: bool = False
 
     def __post_init__(self):
         variables = tuple(str(v) for v in self.variables)
@@ -91,7 +109,7 @@ class Structure:
         if len(set(variables)) != len(variables):
             raise InputError(f"structure of {self.coefficient}: repeated variable in "
                              f"{list(variables)}")
-        mult = tuple(_normal_multiplier(m) for m in self.multipliers)
+        mult = tuple(normal_multiplier(m) for m in self.multipliers)
         if len(set(mult)) != len(mult) or any(
                 not f for m in mult for f in split_multiplier(m)[0].split("*")):
             raise InputError(f"structure of {self.coefficient}: repeated or empty multiplier "
@@ -102,7 +120,15 @@ class Structure:
                 raise InputError(f"structure of {self.coefficient}: the term {m!r} may only "
                                  f"depend on variables of the model {list(variables)}")
         object.__setattr__(self, "multipliers", mult)
+        object.__setattr__(self, "cellwise", bool(self.cellwise))
         knots = dict(self.knots) if not isinstance(self.knots, Mapping) else self.knots
+        for m in mult:
+            bad = [v for v in parse_multiplier(m)[2] if v not in knots]
+            if bad:
+                raise InputError(f"structure of {self.coefficient}: the term {m!r} gives "
+                                 f"breakpoints of {bad}, which have none in the model "
+                                 f"(breakpoints: {sorted(knots)}); a term's breakpoints "
+                                 "are a subset of the model's")
         clean = []
         for v, ks in knots.items():
             if v not in variables:
@@ -162,6 +188,12 @@ class Structure:
             out.append(None if dims is None else tuple(self.variables.index(v)
                                                        for v in dims))
         return out
+
+    @property
+    def term_knots(self) -> list:
+        """Per term, its own breakpoints (variable -> tuple; empty: the model's), from
+        multipliers written ``'dr{beta@-30:30:10deg}'``."""
+        return [parse_multiplier(m)[2] for m in self.multipliers]
 
     @property
     def inputs(self) -> tuple:
@@ -228,7 +260,8 @@ class Structure:
         text = ", ".join(parts)
         if self.multipliers:
             text += " | " + ", ".join(self.multipliers)
-        return f"{self.coefficient}({text}) S^{self.continuity}_{self.degree}"
+        cw = " cellwise" if self.cellwise else ""
+        return f"{self.coefficient}({text}) S^{self.continuity}_{self.degree}{cw}"
 
     def with_(self, **changes) -> Structure:
         """A copy with some fields changed (validated)."""
@@ -242,6 +275,8 @@ class Structure:
             out["multipliers"] = list(self.multipliers)
         if self.knots:
             out["knots"] = {v: list(k) for v, k in self.knots}
+        if self.cellwise:
+            out["cellwise"] = True
         return out
 
     @classmethod
@@ -249,9 +284,9 @@ class Structure:
         """Build from a mapping with keys ``variables`` and optional ``degree``,
         ``continuity``, ``resolution`` (an int applies to every variable),
         ``multipliers`` (list of columns, ``'1'`` for the constant term) and ``knots``
-        (variable -> interior breakpoints, physical units)."""
+        (variable -> interior breakpoints, physical units) and ``cellwise`` (bool)."""
         allowed = {"coefficient", "variables", "degree", "continuity", "resolution",
-                   "multipliers", "knots"}
+                   "multipliers", "knots", "cellwise"}
         coef = str(data.get("coefficient", coefficient))
         unknown = sorted(set(data) - allowed)
         if unknown:
@@ -274,32 +309,14 @@ class Structure:
                              f"breakpoints, got {knots!r}")
         return cls(coef, tuple(variables), int(data.get("degree", 3)),
                    int(data.get("continuity", 1)), tuple(res), tuple(mult),
-                   tuple(knots.items()))
+                   tuple(knots.items()), _flag(data.get("cellwise", False), coef))
 
 
-def split_multiplier(name: str) -> tuple:
-    """A multiplier's expression and the variables its term depends on (None: all):
-    ``'phat[alpha]'`` -> ('phat', ('alpha',)), ``'da'`` -> ('da', None)."""
-    expr, bracket, rest = name.partition("[")
-    if not bracket:
-        return name, None
-    if not rest.endswith("]"):
-        raise InputError(f"multiplier {name!r}: write the term's variables as "
-                         "'name[var1/var2]'")
-    return expr, tuple(v.strip() for v in rest[:-1].split("/") if v.strip())
-
-
-def _normal_multiplier(name) -> str:
-    expr, dims = split_multiplier(str(name).strip())
-    expr = "*".join(f.strip() for f in expr.split("*"))
-    return expr if dims is None else f"{expr}[{'/'.join(dims)}]"
-
-
-def multiplier_factors(name: str) -> tuple:
-    """The data columns whose product a multiplier is: ``'1'`` -> (), ``'da'`` ->
-    ('da',), ``'beta*beta'`` -> ('beta', 'beta'), ``'phat[alpha]'`` -> ('phat',)."""
-    expr = split_multiplier(name)[0]
-    return () if expr == "1" else tuple(expr.split("*"))
+def _flag(value, coef: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputError(f"structure of {coef}: 'cellwise' must be true or false, got "
+                         f"{value!r}")
+    return bool(value)
 
 
 def multiplier_values(structure: Structure, x: np.ndarray) -> np.ndarray:
@@ -324,52 +341,6 @@ def multiplier_jacobian(structure: Structure, x: np.ndarray) -> np.ndarray:
                 rest = rest * x[:, idx[g]]
             out[:, k, idx[f]] += rest
     return out
-
-
-def _is_angle(variable: str) -> bool:
-    return UNITS.get(variable) == "rad"
-
-
-def format_knots(variable: str, knots) -> str:
-    """Breakpoints as label text: ``START:STOP:STEP`` when equally spaced (3 or more),
-    else ``V1/V2/...``; angles in whole degrees get a ``deg`` suffix."""
-    vals = np.asarray(knots, dtype=float)
-    suffix = ""
-    if _is_angle(variable):
-        deg = np.degrees(vals)
-        if np.allclose(deg, np.round(deg, 3), rtol=0, atol=1e-9):
-            vals, suffix = np.round(deg, 3), "deg"
-
-    def f(v):
-        return f"{float(v):g}"
-
-    steps = np.diff(vals)
-    if len(vals) >= 3 and np.allclose(steps, steps[0], rtol=1e-9, atol=1e-12):
-        return f"{f(vals[0])}:{f(vals[-1])}:{f(steps[0])}{suffix}"
-    return "/".join(f(v) for v in vals) + suffix
-
-
-def parse_knots(variable: str, text: str) -> tuple:
-    """Inverse of :func:`format_knots`: ``'-10:25:5deg'`` or ``'0.6/0.8'`` -> radians or
-    physical values."""
-    spec = text.strip()
-    scale = 1.0
-    if spec.endswith("deg"):
-        spec, scale = spec[:-3], np.pi / 180.0
-    try:
-        if ":" in spec:
-            start, stop, step = (float(p) for p in spec.split(":"))
-            if not step > 0 or stop < start:
-                raise ValueError("STEP must be > 0 and STOP >= START")
-            n = int(np.floor((stop - start) / step + 1e-9)) + 1
-            vals = start + step * np.arange(n)
-        else:
-            vals = np.array([float(p) for p in spec.split("/") if p.strip()])
-    except ValueError as exc:
-        raise InputError(f"cannot read the breakpoints {text!r} of {variable!r} ({exc}); "
-                         "write START:STOP:STEP or V1/V2/..., optionally ending in 'deg'") \
-            from None
-    return tuple(float(v) for v in vals * scale)
 
 
 def structures_from_config(config: Mapping, base: Mapping | None = None) -> dict:
