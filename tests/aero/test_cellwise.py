@@ -139,3 +139,18 @@ def test_cellwise_with_term_breakpoints_recovers_the_table_truth(data):
     g = model.gradient(np.column_stack([x[:, :4], np.ones(2)])) - model.gradient(
         np.column_stack([x[:, :4], np.zeros(2)]))
     assert abs(g[0, 0] - g[1, 0]) < 1e-3 * abs(g[0, 0]) + 1e-6
+
+
+def test_config_file_with_cellwise_and_term_breakpoints(tmp_path):
+    from simplexspline.aero.config import load_config
+
+    path = tmp_path / "c.toml"
+    path.write_text('[models.Cl]\nvariables = ["alpha", "beta"]\n'
+                    'multipliers = ["1", "dr{beta@-20:20:10deg}"]\n'
+                    'knots = { beta = [-0.1745, -0.0873, 0.0, 0.0873, 0.1745] }\n'
+                    'degree = 2\ncontinuity = 0\ncellwise = true\n')
+    s = load_config(path).structures["Cl"]
+    assert s.cellwise and s.label().endswith("| 1, dr{beta@-20:20:10deg}) S^0_2 cellwise")
+    path.write_text('[models.Cl]\nvariables = ["alpha"]\ncellwise = 1\n')
+    with pytest.raises(InputError, match="'cellwise' must be true or false"):
+        load_config(path)

@@ -3,7 +3,8 @@
 Breakpoints: ``START:STOP:STEP`` or ``V1/V2/...``, optionally ending in ``deg`` (angles).
 
 A multiplier (one term of a varying-coefficient structure) is an expression, the product
-of data columns (``1`` for the constant term), optionally followed by
+of data columns or their absolute values (``beta*beta``, ``|de|``; ``1`` for the constant
+term), optionally followed by
 
 - ``[v1/v2]``: the scheduling variables the term depends on (constant along the others);
 - ``{v@KNOTS; w@KNOTS}``: the term's own breakpoints, a subset of the model's breakpoints
@@ -18,8 +19,8 @@ import numpy as np
 
 from simplexspline.errors import InputError
 
-__all__ = ["format_knots", "multiplier_factors", "normal_multiplier", "parse_knots",
-           "parse_multiplier", "split_multiplier"]
+__all__ = ["format_knots", "multiplier_factors", "multiplier_parts", "normal_multiplier",
+           "parse_knots", "parse_multiplier", "split_multiplier"]
 
 
 def _is_angle(variable: str) -> bool:
@@ -110,7 +111,9 @@ def split_multiplier(name: str) -> tuple:
 def normal_multiplier(name) -> str:
     """The canonical text of a multiplier (spaces removed, breakpoints reformatted)."""
     expr, dims, knots = parse_multiplier(str(name))
-    text = "*".join(f.strip() for f in expr.split("*"))
+    factors = [f.strip() for f in expr.split("*")]
+    text = "*".join(f"|{f[1:-1].strip()}|" if len(f) > 2 and f[0] == f[-1] == "|" else f
+                    for f in factors)
     if dims is not None:
         text += f"[{'/'.join(dims)}]"
     if knots:
@@ -118,8 +121,25 @@ def normal_multiplier(name) -> str:
     return text
 
 
+def multiplier_parts(name: str) -> tuple:
+    """The factors of a multiplier as (data column, absolute value?) pairs: ``'da'`` ->
+    (('da', False),), ``'|beta|*qhat'`` -> (('beta', True), ('qhat', False))."""
+    expr = split_multiplier(name)[0]
+    if expr == "1":
+        return ()
+    out = []
+    for f in expr.split("*"):
+        absolute = len(f) > 2 and f.startswith("|") and f.endswith("|")
+        col = f[1:-1].strip() if absolute else f
+        if not col or "|" in col:
+            raise InputError(f"multiplier {name!r}: factors are data columns or their "
+                             "absolute values, '|beta|'")
+        out.append((col, absolute))
+    return tuple(out)
+
+
 def multiplier_factors(name: str) -> tuple:
     """The data columns whose product a multiplier is: ``'1'`` -> (), ``'da'`` ->
-    ('da',), ``'beta*beta'`` -> ('beta', 'beta'), ``'phat[alpha]'`` -> ('phat',)."""
-    expr = split_multiplier(name)[0]
-    return () if expr == "1" else tuple(expr.split("*"))
+    ('da',), ``'beta*beta'`` -> ('beta', 'beta'), ``'phat[alpha]'`` -> ('phat',),
+    ``'|de|'`` -> ('de',) (the absolute value of the elevator deflection)."""
+    return tuple(col for col, _ in multiplier_parts(name))

@@ -21,6 +21,7 @@ import numpy as np
 from simplexspline.aero.notation import (
     format_knots,
     multiplier_factors,
+    multiplier_parts,
     normal_multiplier,
     parse_knots,
     parse_multiplier,
@@ -115,6 +116,7 @@ class Structure:
             raise InputError(f"structure of {self.coefficient}: repeated or empty multiplier "
                              f"in {list(mult)}")
         for m in mult:
+            multiplier_parts(m)                      # factors: columns or '|column|'
             dims = split_multiplier(m)[1]
             if dims is not None and any(v not in variables for v in dims):
                 raise InputError(f"structure of {self.coefficient}: the term {m!r} may only "
@@ -324,21 +326,22 @@ def multiplier_values(structure: Structure, x: np.ndarray) -> np.ndarray:
     idx = {v: i for i, v in enumerate(structure.inputs)}
     out = np.ones((len(x), structure.nterms))
     for k, name in enumerate(structure.multipliers):
-        for f in multiplier_factors(name):
-            out[:, k] *= x[:, idx[f]]
+        for f, absolute in multiplier_parts(name):
+            out[:, k] *= np.abs(x[:, idx[f]]) if absolute else x[:, idx[f]]
     return out
 
 
 def multiplier_jacobian(structure: Structure, x: np.ndarray) -> np.ndarray:
-    """d(multiplier k)/d(input i) at the points, shape (N, K, len(structure.inputs))."""
+    """d(multiplier k)/d(input i) at the points, shape (N, K, len(structure.inputs))
+    (``|v|`` factors: ``sign(v)``, 0 at 0)."""
     idx = {v: i for i, v in enumerate(structure.inputs)}
     out = np.zeros((len(x), structure.nterms, len(structure.inputs)))
     for k, name in enumerate(structure.multipliers):
-        factors = multiplier_factors(name)
-        for j, f in enumerate(factors):
-            rest = np.ones(len(x))
-            for g in factors[:j] + factors[j + 1:]:
-                rest = rest * x[:, idx[g]]
+        parts = multiplier_parts(name)
+        for j, (f, absolute) in enumerate(parts):
+            rest = np.sign(x[:, idx[f]]) if absolute else np.ones(len(x))
+            for g, gabs in parts[:j] + parts[j + 1:]:
+                rest = rest * (np.abs(x[:, idx[g]]) if gabs else x[:, idx[g]])
             out[:, k, idx[f]] += rest
     return out
 
