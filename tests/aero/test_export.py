@@ -36,7 +36,7 @@ POLICY = {"nan": 0, "clamp": 1, "extrapolate": 2}
 
 def make_model(structure: Structure, lower, upper, seed: int, cut: float = 0.3) -> AeroModel:
     """A model identified on data that leave a corner of the box empty (dropped
-    simplices), as the identification pipeline builds it (selection._space)."""
+    simplices), as the identification pipeline builds it (fitspace._space)."""
     rng = np.random.default_rng(seed)
     n = structure.ndim
     x = rng.uniform(lower, upper, (4000, n))
