@@ -19,8 +19,8 @@ import numpy as np
 
 from simplexspline.errors import InputError
 
-__all__ = ["format_knots", "multiplier_factors", "multiplier_parts", "normal_multiplier",
-           "parse_knots", "parse_multiplier", "split_multiplier"]
+__all__ = ["format_knots", "format_multiplier", "multiplier_factors", "multiplier_parts",
+           "normal_multiplier", "parse_knots", "parse_multiplier", "split_multiplier"]
 
 
 def _is_angle(variable: str) -> bool:
@@ -108,17 +108,27 @@ def split_multiplier(name: str) -> tuple:
     return parse_multiplier(name)[:2]
 
 
-def normal_multiplier(name) -> str:
-    """The canonical text of a multiplier (spaces removed, breakpoints reformatted)."""
-    expr, dims, knots = parse_multiplier(str(name))
-    factors = [f.strip() for f in expr.split("*")]
-    text = "*".join(f"|{f[1:-1].strip()}|" if len(f) > 2 and f[0] == f[-1] == "|" else f
-                    for f in factors)
+def format_multiplier(expr: str, dims=None, knots=None) -> str:
+    """The canonical text of a multiplier from its parts (see :func:`parse_multiplier`)."""
+    text = "*".join(f"|{col}|" if absolute else col
+                    for col, absolute in (_factor(f) for f in expr.split("*")))
     if dims is not None:
         text += f"[{'/'.join(dims)}]"
     if knots:
         text += "{" + "; ".join(f"{v}@{format_knots(v, k)}" for v, k in knots.items()) + "}"
     return text
+
+
+def normal_multiplier(name) -> str:
+    """The canonical text of a multiplier (spaces removed, breakpoints reformatted)."""
+    return format_multiplier(*parse_multiplier(str(name)))
+
+
+def _factor(text: str) -> tuple:
+    """One factor of a multiplier's expression: (column, absolute value?)."""
+    f = text.strip()
+    absolute = len(f) > 2 and f[0] == f[-1] == "|"
+    return (f[1:-1].strip() if absolute else f), absolute
 
 
 def multiplier_parts(name: str) -> tuple:
@@ -129,8 +139,7 @@ def multiplier_parts(name: str) -> tuple:
         return ()
     out = []
     for f in expr.split("*"):
-        absolute = len(f) > 2 and f.startswith("|") and f.endswith("|")
-        col = f[1:-1].strip() if absolute else f
+        col, absolute = _factor(f)
         if not col or "|" in col:
             raise InputError(f"multiplier {name!r}: factors are data columns or their "
                              "absolute values, '|beta|'")

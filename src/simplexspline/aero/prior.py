@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simplexspline.aero.notation import parse_multiplier
+from simplexspline.aero.notation import format_multiplier, parse_multiplier
 from simplexspline.aero.structure import Structure
 from simplexspline.spline.bform import bnet_points
 
@@ -50,15 +50,10 @@ def coarse_structure(structure: Structure, degree: int = 3) -> Structure:
     their own breakpoints), one grid cell per variable, no breakpoints, the given degree,
     C^1 (C^0 for degree 1); ``cellwise`` like the structure: then one polynomial over the
     whole box."""
-    mult = tuple(_without_knots(m) for m in structure.multipliers)
+    # the coarse model has no breakpoints, so neither have its terms
+    mult = tuple(format_multiplier(*parse_multiplier(m)[:2]) for m in structure.multipliers)
     return Structure(structure.coefficient, structure.variables, degree, min(1, degree - 1),
                      (1,) * structure.ndim, mult, cellwise=structure.cellwise)
-
-
-def _without_knots(multiplier: str) -> str:
-    """A multiplier without its own breakpoints (the coarse model has none)."""
-    expr, dims, _ = parse_multiplier(multiplier)
-    return expr if dims is None else f"{expr}[{'/'.join(dims)}]"
 
 
 def virtual_samples(structure: Structure, triangulation, schedule_scaling, mscale,
