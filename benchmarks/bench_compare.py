@@ -2,7 +2,7 @@
 
 On a simulated F-16 flight-test campaign (JSBSim, reconstructed by the IEKF + RTS smoother,
 exactly the data of ``simplexspline identify``), every coefficient CX..Cn is modelled from
-the *same* explanatory variables (the paper preset, ``simplexspline.aero.structure``) by
+the *same* explanatory variables (the paper preset, ``simplexspline.aero.modelling.structure``) by
 
 * ``spline``: simplex spline of the paper preset (S^1_3, one grid cell per variable);
 * ``spline-tuned``: simplex spline, degree and grid cells per variable chosen by the
@@ -89,8 +89,8 @@ def campaign(maneuvers: int, seed: int, data_dir: Path, workers: int, log=print)
         df.attrs = {}
         log(f"reconstructed campaign from the cache {rec_path}")
         return df, note
-    from simplexspline.aero.flightdata import read_flight_data
-    from simplexspline.aero.reconstruction import reconstruct
+    from simplexspline.aero.data.flight_data import read_flight_data
+    from simplexspline.aero.reconstruction.reconstruct import reconstruct
 
     note = {"maneuvers": maneuvers, "seed": seed}
     if raw_path.is_file():
@@ -154,7 +154,7 @@ def _baselines():
 
 def fit_model(kind: str, structure, data: dict, args) -> Fitted:
     """Fit one model type on the identification data of one coefficient."""
-    from simplexspline.aero.selection import SelectionSettings, fit_structure, select_structure
+    from simplexspline.aero.selection.search import SelectionSettings, fit_structure, select_structure
 
     B = _baselines()
     variables = structure.variables
@@ -246,7 +246,7 @@ def _median_time(fn, repeats: int) -> tuple[float, object]:
 
 def measure(kind: str, structure, data: dict, val: dict, args, workdir: Path) -> dict:
     """Fit (median of up to ``args.repeats`` when a fit takes < 5 s), score, time, size."""
-    from simplexspline.aero.validation import scores
+    from simplexspline.aero.selection.validation import scores
 
     t0 = time.perf_counter()
     fitted = fit_model(kind, structure, data, args)
@@ -448,8 +448,8 @@ def main(argv=None) -> int:
     import sklearn
 
     import simplexspline
-    from simplexspline.aero.structure import PAPER_PRESET, Scaling
-    from simplexspline.aero.validation import fold_by_maneuver, split_by_maneuver
+    from simplexspline.aero.modelling.structure import PAPER_PRESET, Scaling
+    from simplexspline.aero.selection.validation import fold_by_maneuver, split_by_maneuver
 
     def log(msg):
         print(msg, file=sys.stderr, flush=True)

@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 from simplexspline import SplineSpace, Triangulation
-from simplexspline.spline.coverage import coverage
+from simplexspline.spline.uncertainty.coverage import coverage
 
 EDGE = 0.75
 
@@ -115,7 +115,7 @@ def main(argv: list[str]) -> int:
 
 def cost(large: bool) -> int:
     """Time of the GCV search (energy penalty), exact and by Hutchinson (32 probes)."""
-    from simplexspline.spline.penalty import DENSE_MAX, choose_smoothing, penalty_blocks
+    from simplexspline.spline.fit.penalty import DENSE_MAX, choose_smoothing, penalty_blocks
 
     cases = [(2, 3, (6, 6), 3000), (3, 3, (3, 3, 3), 20000), (5, 3, (1,) * 5, 100000),
              (3, 4, (3, 3, 3), 20000)] + ([(3, 4, (6, 6, 6), 300000)] if large else [])
@@ -163,7 +163,7 @@ def cost(large: bool) -> int:
 def write_figure(path: str, data: dict, cov, dim: int) -> None:
     from matplotlib.figure import Figure
 
-    from simplexspline.spline.io import atomic_write
+    from simplexspline.spline.formats.model_file import atomic_write
 
     fig = Figure(figsize=(11.0, 4.2), dpi=100)
     ax1 = fig.add_subplot(1, 2, 1)

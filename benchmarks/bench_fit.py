@@ -21,7 +21,7 @@ Benchmarks
 4. predict throughput (n = 5, d = 3, benchmark 1's spline) and single-point latency.
 5. Dask: benchmark 2's data in 20 partitions of a Dask array, generated and persisted on a
    2-worker ``dask.distributed.LocalCluster`` (processes, one thread each), fitted by
-   ``simplexspline.distributed.fit_dask``: time (cluster start-up and data generation not
+   ``simplexspline.spline.distributed.fit_dask``: time (cluster start-up and data generation not
    counted) and the max coefficient difference from benchmark 2's in-memory fit.
 """
 
@@ -180,7 +180,7 @@ def _child_dask(npts: int, coef_file: str, repeats: int) -> None:
     import dask.array as da
     from dask.distributed import Client, LocalCluster, wait
 
-    from simplexspline.distributed import fit_dask
+    from simplexspline.spline.distributed import fit_dask
 
     size = npts // NPARTS
     t0 = time.perf_counter()

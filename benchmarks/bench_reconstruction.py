@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from simplexspline.aero import ReconstructionSettings, aerodynamic_coefficients, reconstruct
-from simplexspline.aero.flightdata import read_flight_data
+from simplexspline.aero.data.flight_data import read_flight_data
 
 IMU = ("ax", "ay", "az", "p", "q", "r")
 AIR = ("alpha", "beta", "tas")

@@ -52,7 +52,7 @@ def main(argv=None) -> int:
     parser.add_argument("--write", action="store_true", help="also time writing Parquet")
     args = parser.parse_args(argv)
 
-    from simplexspline.aero.flightdata import write_flight_data
+    from simplexspline.aero.data.flight_data import write_flight_data
     from simplexspline.sim import Campaign, envelope_coverage
 
     workers = args.workers or len(os.sched_getaffinity(0))

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from simplexspline import InputError, SplineSpace, Triangulation
-from simplexspline.estimator import NotFittedError, SimplexSplineRegressor
+from simplexspline.estimator.regressor import NotFittedError, SimplexSplineRegressor
 
 sklearn = pytest.importorskip("sklearn")
 from sklearn.model_selection import GridSearchCV, cross_val_score  # noqa: E402
@@ -240,7 +240,7 @@ def test_without_scikit_learn_the_same_protocol_holds(tmp_path):
         import sys
         sys.modules["sklearn"] = None          # import sklearn -> ImportError
         import numpy as np
-        from simplexspline.estimator import HAVE_SKLEARN, SimplexSplineRegressor
+        from simplexspline.estimator.regressor import HAVE_SKLEARN, SimplexSplineRegressor
         from simplexspline import InputError
         assert not HAVE_SKLEARN
         rng = np.random.default_rng(0)

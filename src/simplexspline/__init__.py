@@ -8,7 +8,7 @@ method of de Visser, Mulder and Chu (AIAA 2010-7950) on top of it.
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
+from simplexspline._version import __version__
 
 from simplexspline.errors import (
     DegenerateSimplexError,
@@ -65,7 +65,7 @@ def __getattr__(name: str):
     # The scikit-learn estimator is imported on first use: importing scikit-learn (an
     # optional dependency) costs about a second.
     if name == "SimplexSplineRegressor":
-        from simplexspline.estimator import SimplexSplineRegressor
+        from simplexspline.estimator.regressor import SimplexSplineRegressor
 
         return SimplexSplineRegressor
     raise AttributeError(f"module 'simplexspline' has no attribute {name!r}")

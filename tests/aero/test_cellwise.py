@@ -9,13 +9,13 @@ import pytest
 
 from simplexspline import InputError
 from simplexspline.aero.config import parse_structure
-from simplexspline.aero.model import AeroModel
-from simplexspline.aero.moves import neighbours
-from simplexspline.aero.notation import normal_multiplier, parse_multiplier
-from simplexspline.aero.presets import F16_PRESET
-from simplexspline.aero.prior import coarse_structure
-from simplexspline.aero.selection import SelectionSettings, cv_score, fit_structure
-from simplexspline.aero.structure import Structure
+from simplexspline.aero.modelling.model import AeroModel
+from simplexspline.aero.selection.moves import neighbours
+from simplexspline.aero.modelling.notation import normal_multiplier, parse_multiplier
+from simplexspline.aero.modelling.presets import F16_PRESET
+from simplexspline.aero.modelling.prior import coarse_structure
+from simplexspline.aero.selection.search import SelectionSettings, cv_score, fit_structure
+from simplexspline.aero.modelling.structure import Structure
 
 from .test_varying import ALPHA_KNOTS, D2R, campaign, table
 

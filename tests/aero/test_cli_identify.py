@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from simplexspline.aero.flightdata import write_flight_data
-from simplexspline.aero.model import AeroModel
+from simplexspline.aero.data.flight_data import write_flight_data
+from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.cli import main
 
 EXE = str(Path(sys.executable).with_name("simplexspline"))

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from simplexspline.aero.flightdata import read_flight_data, write_flight_data
+from simplexspline.aero.data.flight_data import read_flight_data, write_flight_data
 from simplexspline.cli import main
 
 

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from simplexspline.aero import aerodynamic_coefficients, angular_accelerations, midpoint_derivative
-from simplexspline.aero.coefficients import COEFFICIENT_NAMES, THRUST_COLUMNS
+from simplexspline.aero.data.coefficients import COEFFICIENT_NAMES, THRUST_COLUMNS
 from simplexspline.errors import FlightDataError, InputError
 
 

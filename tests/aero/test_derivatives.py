@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from simplexspline.aero.derivatives import (
+from simplexspline.aero.derivatives.stability import (
     condition_grid,
     derivative_name,
     derivative_unit,
@@ -18,9 +18,9 @@ from simplexspline.aero.derivatives import (
     plot_derivatives,
     reference_conditions,
 )
-from simplexspline.aero.model import AeroModel
-from simplexspline.aero.selection import fit_structure
-from simplexspline.aero.structure import Structure
+from simplexspline.aero.modelling.model import AeroModel
+from simplexspline.aero.selection.search import fit_structure
+from simplexspline.aero.modelling.structure import Structure
 from simplexspline.cli import main
 from simplexspline.errors import InputError, ModelFileError, OutsideDomainError
 
@@ -382,7 +382,7 @@ def test_cli_points_file(model_dir, tmp_path):
 def test_report_section(models):
     """The report's 'Stability and control derivatives' section: the table at the
     identification-data medians and the figures."""
-    from simplexspline.aero.report import _derivative_section, _Renderer
+    from simplexspline.aero.report.page import _derivative_section, _Renderer
 
     ident = pd.DataFrame(_data(401, seed=2))
     H, M, jobs = [], [], []

@@ -17,15 +17,15 @@ import numpy as np
 import pytest
 
 from simplexspline import InputError, SimplexSpline, Triangulation
-from simplexspline.aero.export import (
+from simplexspline.aero.export.c_code import (
     generate_aero_c,
     load_exportable,
     lookup_table,
     parse_grid,
 )
-from simplexspline.aero.export import _parameter_names as parameter_names
-from simplexspline.aero.model import AeroModel
-from simplexspline.aero.structure import Scaling, Structure
+from simplexspline.aero.export.c_code import _parameter_names as parameter_names
+from simplexspline.aero.modelling.model import AeroModel
+from simplexspline.aero.modelling.structure import Scaling, Structure
 from simplexspline.cli import main
 
 CC = shutil.which("cc") or ("/usr/bin/cc" if Path("/usr/bin/cc").exists() else None)

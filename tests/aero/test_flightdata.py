@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from simplexspline.aero.flightdata import (
+from simplexspline.aero.data.flight_data import (
     FLIGHT_DATA_COLUMNS,
     REQUIRED_COLUMNS,
     SCHEMA_VERSION,

@@ -14,9 +14,9 @@ from simplexspline.aero.identify import (
     ThinDataWarning,
     identify,
 )
-from simplexspline.aero.model import AeroModel
-from simplexspline.aero.selection import SelectionSettings, fit_structure, select_structure
-from simplexspline.aero.structure import Structure
+from simplexspline.aero.modelling.model import AeroModel
+from simplexspline.aero.selection.search import SelectionSettings, fit_structure, select_structure
+from simplexspline.aero.modelling.structure import Structure
 from simplexspline.errors import FlightDataError, InputError, ModelFileError
 
 from .synthetic import synthetic_table, true_cz
@@ -99,7 +99,7 @@ def test_table_and_summary(result):
 
 
 def test_save_writes_models_summary_and_loads(result, tmp_path, monkeypatch):
-    import simplexspline.aero.report as report
+    import simplexspline.aero.report.page as report
 
     monkeypatch.setattr(report, "write_report", lambda res, out, progress=None: None)
     out = result.save(tmp_path / "out")
@@ -117,7 +117,7 @@ def test_save_writes_models_summary_and_loads(result, tmp_path, monkeypatch):
 
 
 def test_failed_save_leaves_no_directory_and_keeps_the_old_one(result, tmp_path, monkeypatch):
-    import simplexspline.aero.report as report
+    import simplexspline.aero.report.page as report
 
     def boom(*args, **kwargs):
         raise RuntimeError("disk full")

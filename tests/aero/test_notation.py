@@ -9,10 +9,10 @@ import pytest
 
 from simplexspline import InputError
 from simplexspline.aero.config import parse_structure
-from simplexspline.aero.notation import multiplier_parts, normal_multiplier
-from simplexspline.aero.presets import VARYING_PRESET
-from simplexspline.aero.selection import fit_structure
-from simplexspline.aero.structure import multiplier_jacobian, multiplier_values
+from simplexspline.aero.modelling.notation import multiplier_parts, normal_multiplier
+from simplexspline.aero.modelling.presets import VARYING_PRESET
+from simplexspline.aero.selection.search import fit_structure
+from simplexspline.aero.modelling.structure import multiplier_jacobian, multiplier_values
 
 from .test_varying import campaign
 

@@ -9,9 +9,9 @@ import pandas as pd
 import pytest
 
 from simplexspline.aero import Reconstruction, ReconstructionSettings, reconstruct
-from simplexspline.aero.iekf import rts_smooth, run_filter
-from simplexspline.aero.kinematics import NX, NZ, EarthModel, measure, normal_gravity, propagate
-from simplexspline.aero.reconstruction import innovation_statistics
+from simplexspline.aero.reconstruction.iekf import rts_smooth, run_filter
+from simplexspline.aero.reconstruction.kinematics import NX, NZ, EarthModel, measure, normal_gravity, propagate
+from simplexspline.aero.reconstruction.reconstruct import innovation_statistics
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.sim.sensors import DEFAULT_BIAS, DEFAULT_NOISE_STD
 
@@ -146,8 +146,8 @@ def test_smoother_beats_filter(noisy_campaign):
 
 def test_rts_without_covariance_matches_with_covariance(noisy_campaign):
     d = noisy_campaign[noisy_campaign["maneuver"] == 3].iloc[:300]
-    from simplexspline.aero.reconstruction import _initial_state
-    from simplexspline.aero.kinematics import MEASUREMENT_NAMES
+    from simplexspline.aero.reconstruction.reconstruct import _initial_state
+    from simplexspline.aero.reconstruction.kinematics import MEASUREMENT_NAMES
 
     z = d[list(MEASUREMENT_NAMES)].to_numpy()
     x0, P0 = _initial_state(z, ReconstructionSettings().prior)

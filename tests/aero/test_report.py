@@ -12,10 +12,11 @@ import pytest
 
 pytest.importorskip("matplotlib")
 
-from simplexspline.aero.identify import PAPER_TABLE2, IdentificationSettings, identify
-from simplexspline.aero.report import write_report
-from simplexspline.aero.selection import SelectionSettings
-from simplexspline.aero.structure import Structure
+from simplexspline.aero.identify import IdentificationSettings, identify
+from simplexspline.aero.selection.validation import PAPER_TABLE2
+from simplexspline.aero.report.page import write_report
+from simplexspline.aero.selection.search import SelectionSettings
+from simplexspline.aero.modelling.structure import Structure
 
 EVIL = "test<script>alert('x')</script>&co"
 
@@ -149,7 +150,7 @@ def test_markdown_figures_exist(report):
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_render_jobs_in_order(workers):
-    from simplexspline.aero.report import _render
+    from simplexspline.aero.report.page import _render
 
     lines = []
     jobs = [(f"job {i}", lambda i=i: i * i) for i in range(5)]
@@ -158,7 +159,7 @@ def test_render_jobs_in_order(workers):
 
 
 def test_projected_edges_unique():
-    from simplexspline.aero.report import _projected_edges
+    from simplexspline.aero.report.page import _projected_edges
 
     # two triangles sharing an edge: 5 distinct edges
     pts = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])

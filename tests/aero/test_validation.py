@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from simplexspline.aero.validation import (
+from simplexspline.aero.selection.validation import (
     CONDITION_KEEP,
     autocorrelation,
     covered_in_fold,

@@ -10,11 +10,11 @@ import pytest
 
 from simplexspline import InputError
 from simplexspline.aero.config import parse_structure
-from simplexspline.aero.export import generate_aero_c, lookup_table
-from simplexspline.aero.model import AeroModel
-from simplexspline.aero.moves import neighbours
-from simplexspline.aero.selection import SelectionSettings, cv_score, fit_structure
-from simplexspline.aero.structure import Scaling, Structure, format_knots, parse_knots
+from simplexspline.aero.export.c_code import generate_aero_c, lookup_table
+from simplexspline.aero.modelling.model import AeroModel
+from simplexspline.aero.selection.moves import neighbours
+from simplexspline.aero.selection.search import SelectionSettings, cv_score, fit_structure
+from simplexspline.aero.modelling.structure import Scaling, Structure, format_knots, parse_knots
 
 D2R = np.pi / 180.0
 #: table breakpoints of the synthetic "database" (like JSBSim's F-16: alpha every 5 deg)
@@ -348,8 +348,8 @@ def test_identify_leaves_out_a_multiplier_that_never_moved():
 
 
 def test_prior_degree_is_chosen_by_cross_validation(data):
-    from simplexspline.aero.prior import PRIOR_DEGREES
-    from simplexspline.aero.selection import choose_prior_degree
+    from simplexspline.aero.modelling.prior import PRIOR_DEGREES
+    from simplexspline.aero.selection.search import choose_prior_degree
 
     cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
     y = data["Cl"].to_numpy()

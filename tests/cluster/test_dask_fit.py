@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from simplexspline import InputError, SplineSpace, Triangulation
-from simplexspline.distributed import fit_dask, normal_equations_dask
+from simplexspline.spline.distributed import fit_dask, normal_equations_dask
 
 dd = pytest.importorskip("dask.dataframe")
 da = pytest.importorskip("dask.array")

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from simplexspline.aero.flightdata import (
+from simplexspline.aero.data.flight_data import (
     FLIGHT_DATA_COLUMNS,
     REQUIRED_COLUMNS,
     SCHEMA_VERSION,
@@ -166,7 +166,7 @@ def test_same_seed_same_data_global5000(global5000_ideal):
 
 
 def test_campaign_round_trips_through_parquet(tmp_path, f16_ideal):
-    from simplexspline.aero.flightdata import read_flight_data, write_flight_data
+    from simplexspline.aero.data.flight_data import read_flight_data, write_flight_data
 
     path = write_flight_data(f16_ideal, tmp_path / "campaign.parquet")
     back, meta = read_flight_data(path)
@@ -266,7 +266,7 @@ def test_maneuvers_per_condition():
 
 
 def test_simulate_campaign_writes_the_file(tmp_path):
-    from simplexspline.aero.flightdata import read_flight_data
+    from simplexspline.aero.data.flight_data import read_flight_data
     from simplexspline.sim import simulate_campaign
 
     out = tmp_path / "c.parquet"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from simplexspline.aero.flightdata import read_flight_data
+from simplexspline.aero.data.flight_data import read_flight_data
 from simplexspline.cli import main
 
 

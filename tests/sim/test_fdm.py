@@ -9,7 +9,7 @@ import numpy as np
 from simplexspline.sim import fdm as fdm_module
 from simplexspline.sim import get_aircraft
 from simplexspline.sim.maneuvers import design_maneuver
-from simplexspline.sim.runner import simulate_maneuver
+from simplexspline.sim.flight import simulate_maneuver
 from simplexspline.sim.sensors import SensorModel
 
 from .conftest import small_campaign

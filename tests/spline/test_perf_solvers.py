@@ -10,8 +10,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from simplexspline import InputError, NormalEquations, OutsideDomainError, SplineSpace, Triangulation
-from simplexspline.spline import kernels, normal, solve
-from simplexspline.spline.solve import SparseCholesky, _nested_dissection
+from simplexspline.spline import kernels
+from simplexspline.spline.fit import constrained as solve
+from simplexspline.spline.fit import normal_equations as normal
+from simplexspline.spline.fit.constrained import SparseCholesky, _nested_dissection
 
 from . import reference as ref
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from simplexspline import InputError, SplineSpace, Triangulation
-from simplexspline.spline.coverage import Coverage, coverage
+from simplexspline.spline.uncertainty.coverage import Coverage, coverage
 
 from . import reference as ref
 from .cases import seeded

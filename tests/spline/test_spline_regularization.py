@@ -12,7 +12,7 @@ import pytest
 import scipy.linalg
 
 from simplexspline import InputError, InsufficientDataError, SplineSpace, Triangulation
-from simplexspline.spline.penalty import (
+from simplexspline.spline.fit.penalty import (
     bernstein_gram,
     choose_smoothing,
     effective_dof,

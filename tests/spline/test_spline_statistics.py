@@ -12,7 +12,7 @@ import pytest
 import scipy.linalg as sla
 from scipy import stats
 
-import simplexspline.spline.statistics as st
+import simplexspline.spline.uncertainty.intervals as st
 from simplexspline import (
     InputError,
     InsufficientDataError,
@@ -23,7 +23,7 @@ from simplexspline import (
     Triangulation,
 )
 from simplexspline.spline import kernels
-from simplexspline.spline.io import save_spline
+from simplexspline.spline.formats.model_file import save_spline
 
 from . import reference as ref
 from .cases import data_in_simplices, make_triangulation, seeded, smooth_function
@@ -133,7 +133,7 @@ def test_without_continuity_blocks_are_inverse_gram_blocks(path):
 
 @pytest.mark.parametrize("covariance", ["frequentist", "bayesian"])
 def test_penalised_fit_matches_dense_reference(covariance, path):
-    from simplexspline.spline.penalty import penalty_blocks
+    from simplexspline.spline.fit.penalty import penalty_blocks
 
     rng = seeded("stats-penalty")
     tri = make_triangulation("explicit", 2, rng)
@@ -514,8 +514,8 @@ def test_dense_covariance_is_refused_for_large_problems(fitted, monkeypatch):
 
 # ----------------------------------------------------------------------------- aero layer
 def test_aero_model_bounds_go_through_the_scaling(fitted):
-    from simplexspline.aero.model import AeroModel
-    from simplexspline.aero.structure import Scaling, Structure
+    from simplexspline.aero.modelling.model import AeroModel
+    from simplexspline.aero.modelling.structure import Scaling, Structure
 
     s = fitted["spline"]
     # unit-box spline: rebuild the fitted case on [0, 1]^2 via the affine map of the scaling

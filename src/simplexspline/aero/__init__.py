@@ -1,19 +1,19 @@
 """The identification method of de Visser, Mulder and Chu on top of the spline layer.
 
-The flight-data schema (:mod:`simplexspline.aero.flightdata`), flight path reconstruction
-(:mod:`simplexspline.aero.reconstruction`, IEKF + RTS smoother), the aerodynamic
-coefficients of Eq. 43-48 (:mod:`simplexspline.aero.coefficients`), model structures and
-their automatic selection (:mod:`~simplexspline.aero.structure`,
-:mod:`~simplexspline.aero.selection`), validation (:mod:`~simplexspline.aero.validation`),
+The flight-data schema (:mod:`simplexspline.aero.data.flight_data`), flight path reconstruction
+(:mod:`simplexspline.aero.reconstruction.reconstruct`, IEKF + RTS smoother), the aerodynamic
+coefficients of Eq. 43-48 (:mod:`simplexspline.aero.data.coefficients`), model structures and
+their automatic selection (:mod:`~simplexspline.aero.modelling.structure`,
+:mod:`~simplexspline.aero.selection.search`), validation (:mod:`~simplexspline.aero.selection.validation`),
 the whole pipeline (:func:`identify`, docs/identification.md) and its report
-(:mod:`~simplexspline.aero.report`).
+(:mod:`~simplexspline.aero.report.page`).
 """
 
 from __future__ import annotations
 
-from simplexspline.aero.coefficients import aerodynamic_coefficients, angular_accelerations
+from simplexspline.aero.data.coefficients import aerodynamic_coefficients, angular_accelerations
 from simplexspline.aero.config import load_config, parse_structure
-from simplexspline.aero.derivatives import (
+from simplexspline.aero.derivatives.stability import (
     condition_grid,
     derivatives,
     load_models,
@@ -21,8 +21,8 @@ from simplexspline.aero.derivatives import (
     plot_derivatives,
     reference_conditions,
 )
-from simplexspline.aero.differentiation import midpoint_derivative
-from simplexspline.aero.flightdata import (
+from simplexspline.aero.data.differentiation import midpoint_derivative
+from simplexspline.aero.data.flight_data import (
     FLIGHT_DATA_COLUMNS,
     REQUIRED_COLUMNS,
     SCHEMA_VERSION,
@@ -38,16 +38,16 @@ from simplexspline.aero.identify import (
     ThinDataWarning,
     identify,
 )
-from simplexspline.aero.model import AeroModel
-from simplexspline.aero.reconstruction import (
+from simplexspline.aero.modelling.model import AeroModel
+from simplexspline.aero.reconstruction.reconstruct import (
     Reconstruction,
     ReconstructionSettings,
     innovation_statistics,
     reconstruct,
 )
-from simplexspline.aero.selection import SelectionSettings, select_structure
-from simplexspline.aero.structure import Scaling, Structure, preset
-from simplexspline.aero.validation import scores, split_by_maneuver
+from simplexspline.aero.selection.search import SelectionSettings, select_structure
+from simplexspline.aero.modelling.structure import Scaling, Structure, preset
+from simplexspline.aero.selection.validation import scores, split_by_maneuver
 
 __all__ = [
     "FLIGHT_DATA_COLUMNS",

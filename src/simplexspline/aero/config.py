@@ -54,8 +54,8 @@ from dataclasses import fields, replace
 from pathlib import Path
 
 from simplexspline.aero.identify import IdentificationSettings
-from simplexspline.aero.selection import SelectionSettings
-from simplexspline.aero.structure import (
+from simplexspline.aero.selection.search import SelectionSettings
+from simplexspline.aero.modelling.structure import (
     COEFFICIENTS,
     Structure,
     parse_knots,
@@ -75,7 +75,7 @@ def parse_structure(text: str) -> Structure:
 
     Varying-coefficient structures list their multipliers after ``|`` and breakpoints
     after ``@``: ``'Cl(alpha@-10:25:5deg, beta:2, mach@0.6/0.8 | 1, phat, rhat, da, dr)
-    S^0_2'`` (see :func:`~simplexspline.aero.structure.parse_knots`).
+    S^0_2'`` (see :func:`~simplexspline.aero.modelling.structure.parse_knots`).
     """
     m = _LABEL.match(text) or _SHORT.match(text)
     if not m:

@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from simplexspline.aero.model import AeroModel
-from simplexspline.aero.selection import (
+from simplexspline.aero.modelling.model import AeroModel
+from simplexspline.aero.selection.search import (
     SelectionSettings,
     Trial,
     choose_prior_degree,
@@ -31,21 +31,17 @@ from simplexspline.aero.selection import (
     select_structure,
     single_threaded_blas,
 )
-from simplexspline.aero.structure import COEFFICIENTS, Structure, multiplier_values, preset
-from simplexspline.aero.validation import scores, split_by_maneuver
+from simplexspline.aero.modelling.structure import COEFFICIENTS, Structure, multiplier_values, preset
+from simplexspline.aero.selection.validation import PAPER_TABLE2, scores, split_by_maneuver
 from simplexspline.errors import FlightDataError, InputError
 
 __all__ = [
-    "PAPER_TABLE2",
     "CoefficientResult",
     "Identification",
     "IdentificationSettings",
     "ThinDataWarning",
     "identify",
 ]
-
-#: Validation relative RMS of the paper's Table 2 (Cessna Citation II, fractions).
-PAPER_TABLE2 = {"CX": 0.0693, "CZ": 0.0260, "Cl": 0.0170, "Cm": 0.0172, "Cn": 0.0472}
 
 #: Columns that identify data as already reconstructed (coefficients present).
 _RECONSTRUCTED = ("CX", "CY", "CZ", "Cl", "Cm", "Cn", "phat", "qhat", "rhat")
@@ -65,7 +61,7 @@ class IdentificationSettings:
         Coefficients to model (default all six, CX..Cn).
     preset : {'paper', 'varying', 'f16'}
         Where the starting structures come from (see
-        :func:`~simplexspline.aero.structure.preset`).
+        :func:`~simplexspline.aero.modelling.structure.preset`).
     structures : dict of str to Structure, optional
         Starting (or fixed) structures overriding the preset's.
     select : bool
@@ -134,7 +130,7 @@ class CoefficientResult:
     ----------
     model : AeroModel
     validation : dict
-        :func:`~simplexspline.aero.validation.scores` on the validation maneuvers.
+        :func:`~simplexspline.aero.selection.validation.scores` on the validation maneuvers.
     identification : dict
         The same on the identification data (fit quality).
     history : list of Trial
@@ -266,7 +262,7 @@ class Identification:
                 json.dumps(_jsonable(self.summary()), indent=1, allow_nan=True) + "\n",
                 encoding="utf-8")
             if report:
-                from simplexspline.aero.report import write_report
+                from simplexspline.aero.report.page import write_report
 
                 write_report(self, tmp, progress=progress)
             if outdir.exists():
@@ -316,7 +312,7 @@ def _coefficient_data(df, meta: dict, settings: IdentificationSettings, progress
             raise FlightDataError(f"reconstruct='never' but the coefficient column(s) "
                                   f"{missing} are missing: run the reconstruction")
         return df, {"reconstructed": False}
-    from simplexspline.aero.reconstruction import reconstruct
+    from simplexspline.aero.reconstruction.reconstruct import reconstruct
 
     log("flight path reconstruction (IEKF + RTS smoother)")
     rec = reconstruct(df, meta, workers=settings.workers, progress=progress)
@@ -370,7 +366,7 @@ def identify(df, metadata: Mapping | None = None, *,
     InputError
         Unknown variables in a structure, an empty identification or validation set.
     """
-    from simplexspline import __version__
+    from simplexspline._version import __version__
 
     settings = settings or IdentificationSettings()
     log = log or (lambda _msg: None)

@@ -20,7 +20,7 @@ _COMMANDS = ("identify", "simulate", "reconstruct", "export", "derivatives", "de
 
 def build_parser() -> argparse.ArgumentParser:
     """Build the top-level parser with every available sub-command."""
-    from simplexspline import __version__
+    from simplexspline._version import __version__
 
     parser = argparse.ArgumentParser(
         prog="simplexspline",

@@ -85,7 +85,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 # ---------------------------------------------------------------------------- parsing
 def _unit(var: str) -> str:
-    from simplexspline.aero.structure import UNITS
+    from simplexspline.aero.modelling.structure import UNITS
 
     return UNITS.get(var, "")
 
@@ -203,8 +203,8 @@ def _jsonable(obj):
 
 def describe(table, sources) -> dict:
     """The ``.csv.json`` description of a derivative table's columns."""
-    from simplexspline import __version__
-    from simplexspline.aero.structure import UNITS
+    from simplexspline._version import __version__
+    from simplexspline.aero.modelling.structure import UNITS
 
     attrs = table.attrs
     info = attrs.get("derivatives", {})
@@ -235,7 +235,7 @@ def describe(table, sources) -> dict:
 
 
 def _write_table(table, path: Path, sources, long: bool) -> None:
-    from simplexspline.aero.derivatives import _long
+    from simplexspline.aero.derivatives.stability import _long
 
     meta = describe(table, sources)
     out = table
@@ -256,7 +256,7 @@ def _write_table(table, path: Path, sources, long: bool) -> None:
 
 # ---------------------------------------------------------------------------- handler
 def handler(args: argparse.Namespace) -> int:
-    from simplexspline.aero.derivatives import (
+    from simplexspline.aero.derivatives.stability import (
         derivatives,
         load_models,
         plot_derivative_map,
@@ -340,7 +340,7 @@ def _read_points(path: Path):
 
 
 def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) -> None:
-    from simplexspline.aero.derivatives import derivatives
+    from simplexspline.aero.derivatives.stability import derivatives
 
     info = table.attrs["derivatives"]
     inmodel = [k for k, d in info.items() if d["in_model"]]

@@ -53,7 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _default_prefix(model, path: Path) -> str:
-    from simplexspline.aero.model import AeroModel
+    from simplexspline.aero.modelling.model import AeroModel
 
     stem = model.coefficient.lower() if isinstance(model, AeroModel) else path.stem
     name = re.sub(r"[^A-Za-z0-9_]", "_", stem).strip("_") or "model"
@@ -71,7 +71,7 @@ def _pairs(items, option: str) -> dict:
 
 
 def _grid(args, variables) -> dict:
-    from simplexspline.aero.export import parse_grid
+    from simplexspline.aero.export.c_code import parse_grid
 
     grid = {}
     for spec in args.grid:
@@ -90,14 +90,14 @@ def _grid(args, variables) -> dict:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from simplexspline.aero.export import (
+    from simplexspline.aero.export.c_code import (
         generate_aero_c,
         load_exportable,
         lookup_table,
         model_variables,
     )
-    from simplexspline.aero.model import AeroModel
-    from simplexspline.spline.export import generate_c
+    from simplexspline.aero.modelling.model import AeroModel
+    from simplexspline.spline.formats.c_export import generate_c
 
     if args.c_dir is None and args.table is None:
         raise InputError("nothing to export: give --c DIR and/or --table OUT")

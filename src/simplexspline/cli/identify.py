@@ -124,7 +124,7 @@ def _simulate(args, log):
 
 
 def handler(args: argparse.Namespace) -> int:
-    from simplexspline.aero.flightdata import read_flight_data
+    from simplexspline.aero.data.flight_data import read_flight_data
     from simplexspline.aero.identify import ThinDataWarning, file_hash, identify
 
     t0 = time.perf_counter()

@@ -42,8 +42,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def handler(args: argparse.Namespace) -> int:
-    from simplexspline.aero.flightdata import read_flight_data, write_flight_data
-    from simplexspline.aero.reconstruction import ReconstructionSettings, reconstruct
+    from simplexspline.aero.data.flight_data import read_flight_data, write_flight_data
+    from simplexspline.aero.reconstruction.reconstruct import ReconstructionSettings, reconstruct
 
     if args.output.suffix.lower() not in (".parquet", ".pq", ".csv"):
         raise InputError(f"output {str(args.output)!r} must end in .parquet or .csv")

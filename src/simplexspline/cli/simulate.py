@@ -72,7 +72,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from simplexspline.aero.flightdata import write_flight_data
+    from simplexspline.aero.data.flight_data import write_flight_data
     from simplexspline.sim import Campaign, SensorModel
 
     if args.output.suffix.lower() not in (".parquet", ".pq", ".csv"):

@@ -6,7 +6,7 @@ sensors, seed), run it, get one table per campaign in the flight-data schema
 
     from simplexspline.sim import Campaign
     df = Campaign("f16", maneuvers=250, seed=0).run()      # ~1e6 samples at 100 Hz
-    from simplexspline.aero.flightdata import write_flight_data
+    from simplexspline.aero.data.flight_data import write_flight_data
     write_flight_data(df, "campaign.parquet")
 
 Maneuvers follow Section IV of de Visser, Mulder and Chu (AIAA 2010-7950): automatic
@@ -25,7 +25,7 @@ from simplexspline.sim.aircraft import (
     get_aircraft,
     register_aircraft,
 )
-from simplexspline.sim.assemble import envelope_coverage
+from simplexspline.sim.campaign_table import envelope_coverage
 from simplexspline.sim.campaign import DEFAULT_MIX, Campaign, simulate_campaign
 from simplexspline.sim.maneuvers import MANEUVER_FAMILIES, MANEUVER_TYPES
 from simplexspline.sim.sensors import (

@@ -27,7 +27,7 @@ import numpy as np
 from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile, Envelope, get_aircraft
 from simplexspline.sim.maneuvers import AXES, MANEUVER_FAMILIES, design_maneuver
-from simplexspline.sim.runner import simulate_maneuver, trim_condition
+from simplexspline.sim.flight import simulate_maneuver, trim_condition
 from simplexspline.sim.sensors import SensorModel
 
 __all__ = ["Campaign", "simulate_campaign", "DEFAULT_MIX", "isa_speed_of_sound"]
@@ -315,7 +315,7 @@ class Campaign:
             for i, res in ex.map(simulate_maneuver, specs, weights, progress=progress,
                                  desc=f"{st['profile'].name} maneuvers"):
                 results[i] = res
-        from simplexspline.sim.assemble import assemble
+        from simplexspline.sim.campaign_table import assemble
 
         return assemble(results, conditions, st, self)
 
@@ -380,7 +380,7 @@ def simulate_campaign(aircraft: str | AircraftProfile = "f16", *, maneuvers: int
     aircraft, maneuvers, seed, **kwargs
         Passed to :class:`Campaign`.
     output : path-like, optional
-        Write the table with :func:`simplexspline.aero.flightdata.write_flight_data`.
+        Write the table with :func:`simplexspline.aero.data.flight_data.write_flight_data`.
     workers, progress
         Passed to :meth:`Campaign.run`.
 
@@ -391,7 +391,7 @@ def simulate_campaign(aircraft: str | AircraftProfile = "f16", *, maneuvers: int
     df = Campaign(aircraft, maneuvers=maneuvers, seed=seed, **kwargs).run(
         workers=workers, progress=progress)
     if output is not None:
-        from simplexspline.aero.flightdata import write_flight_data
+        from simplexspline.aero.data.flight_data import write_flight_data
 
         write_flight_data(df, output)
     return df

@@ -11,10 +11,10 @@ from simplexspline.spline.bform import (
     num_basis,
 )
 from simplexspline.spline.continuity import smoothness_matrix
-from simplexspline.spline.normal import NormalEquations
+from simplexspline.spline.fit.normal_equations import NormalEquations
 from simplexspline.spline.space import SplineSpace
-from simplexspline.spline.spline import SimplexSpline
-from simplexspline.spline.triangulation import Facets, Triangulation
+from simplexspline.spline.function import SimplexSpline
+from simplexspline.spline.geometry.triangulation import Facets, Triangulation
 
 __all__ = [
     "Triangulation",

@@ -337,7 +337,7 @@ def smoothness_matrix(tri, d: int, r: int, reduce: bool = True) -> sp.csr_matrix
         Column ``j*d_hat + k`` is B-coefficient ``k`` (Eq. 11 order) of simplex ``j``
         (Eq. 24). ``H @ c == 0`` iff the spline with coefficients ``c`` is C^r.
     """
-    from simplexspline.spline.validation import check_degree
+    from simplexspline.spline.inputs import check_degree
 
     d, r = check_degree(d, r)
     cond = build_conditions(tri, d, r)

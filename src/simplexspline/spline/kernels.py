@@ -13,7 +13,7 @@ Kernels
 * :func:`evaluate`: barycentric coordinates, basis and the dot product with the simplex's
   coefficients fused, without materialising the basis matrix.
 * :func:`extend_add`: the scatter-add of a child's update matrix into its parent's frontal
-  matrix in the sparse Cholesky of :mod:`simplexspline.spline.solve` (lower triangles).
+  matrix in the sparse Cholesky of :mod:`simplexspline.spline.fit.constrained` (lower triangles).
 """
 
 from __future__ import annotations
@@ -474,7 +474,7 @@ def extend_add(front: np.ndarray, idx: np.ndarray, upd: np.ndarray) -> None:
 
 
 def grid_locate(x, lower, step, shape, table, nfact, tol) -> np.ndarray:
-    """Compiled Kuhn-grid location (see :class:`~simplexspline.spline.locate.GridLocator`)."""
+    """Compiled Kuhn-grid location (see :class:`~simplexspline.spline.geometry.location.GridLocator`)."""
     out = np.empty(len(x), dtype=np.int64)
     in_parallel(len(x), lambda s, e: _grid_locate(x[s:e], lower, step, shape, table, nfact,
                                                  tol, out[s:e]))

@@ -15,9 +15,9 @@ from simplexspline.spline.continuity import (
     conditions_per_facet,
     reduce_rows,
 )
-from simplexspline.spline.normal import NormalEquations
-from simplexspline.spline.solve import solve_constrained
-from simplexspline.spline.validation import as_points, check_degree
+from simplexspline.spline.fit.normal_equations import NormalEquations
+from simplexspline.spline.fit.constrained import solve_constrained
+from simplexspline.spline.inputs import as_points, check_degree
 
 __all__ = ["SplineSpace"]
 
@@ -155,7 +155,7 @@ class SplineSpace:
         -------
         SimplexSpline
         """
-        from simplexspline.spline.spline import SimplexSpline
+        from simplexspline.spline.function import SimplexSpline
 
         if not isinstance(normal_equations, NormalEquations):
             raise InputError("solve() takes a NormalEquations accumulator "
@@ -165,7 +165,7 @@ class SplineSpace:
             coef, info = solve_constrained(normal_equations, self.system,
                                            on_insufficient=on_insufficient, ridge=ridge)
         else:
-            from simplexspline.spline.penalty import solve_penalized
+            from simplexspline.spline.fit.penalty import solve_penalized
 
             coef, info = solve_penalized(normal_equations, self.system, penalty=penalty,
                                          smoothing=smoothing,
@@ -198,7 +198,7 @@ class SplineSpace:
             conditions. ``'gcv'`` chooses ``lam`` by generalized cross-validation; a float
             is the relative weight (``lam = smoothing * tr(X'WX) / tr(P)``). ``None`` (the
             default): no penalty. The chosen weight and the effective degrees of freedom
-            are in ``spline.info.regularization``. See :mod:`simplexspline.spline.penalty`.
+            are in ``spline.info.regularization``. See :mod:`simplexspline.spline.fit.penalty`.
         penalty : {'energy', 'membrane', 'ridge'} or ndarray, default 'energy'
             The penalty P used with ``smoothing``: integrated squared second derivatives
             (thin plate, in the triangulation's coordinates), squared first derivatives,

@@ -12,7 +12,7 @@ equality-constrained least-squares problem.
 A point in simplex t touches only the coefficients of simplex t of every term: its
 regression row is ``kron(m, B(b))`` (K * d_hat values), so X'WX stays block diagonal with
 J blocks of (K d_hat) x (K d_hat). The blocks are accumulated chunk by chunk exactly like
-:class:`~simplexspline.spline.normal.NormalEquations` (never the dense N x (J K d_hat)
+:class:`~simplexspline.spline.fit.normal_equations.NormalEquations` (never the dense N x (J K d_hat)
 matrix), and the constrained solver, the ridge and the smoothing penalties with GCV of the
 plain splines apply unchanged, on K copies of the continuity conditions.
 
@@ -29,16 +29,16 @@ import scipy.sparse as sp
 
 from simplexspline.errors import InputError, OutsideDomainError
 from simplexspline.spline import kernels
-from simplexspline.spline.barycentric import direction_coordinates
+from simplexspline.spline.geometry.barycentric import direction_coordinates
 from simplexspline.spline.bform import (
     basis_values_t,
     multi_index_lookup,
     multi_indices,
     num_basis,
 )
-from simplexspline.spline.normal import BlockSums
-from simplexspline.spline.spline import OUTSIDE_POLICIES, SimplexSpline
-from simplexspline.spline.validation import as_points, as_values, as_weights
+from simplexspline.spline.fit.normal_equations import BlockSums
+from simplexspline.spline.function import OUTSIDE_POLICIES, SimplexSpline
+from simplexspline.spline.inputs import as_points, as_values, as_weights
 
 __all__ = ["VaryingCoefficientSpace", "VaryingNormalEquations", "VaryingCoefficientSpline",
            "constancy_conditions"]
@@ -102,7 +102,7 @@ class _TermSystem:
 
     def __init__(self, space, nterms: int, excluded=None, facets=None):
         from simplexspline.spline.continuity import build_conditions
-        from simplexspline.spline.solve import _global_points
+        from simplexspline.spline.fit.constrained import _global_points
 
         base = space.system
         tri = space.triangulation
@@ -368,9 +368,9 @@ class VaryingCoefficientSpace:
 
     def penalty_blocks(self, penalty="energy") -> np.ndarray:
         """Per-simplex penalty blocks of every term, shape (J, K*d_hat, K*d_hat): the plain
-        space's blocks (:func:`~simplexspline.spline.penalty.penalty_blocks`) on the
+        space's blocks (:func:`~simplexspline.spline.fit.penalty.penalty_blocks`) on the
         diagonal."""
-        from simplexspline.spline.penalty import penalty_blocks
+        from simplexspline.spline.fit.penalty import penalty_blocks
 
         P = penalty_blocks(self.triangulation, self.space.degree, penalty)
         J, dh, _ = P.shape
@@ -389,7 +389,7 @@ class VaryingCoefficientSpace:
         weight for all terms: put the multipliers on comparable scales) and ``penalty``
         (a kind, applied to every term, or blocks of shape (J, K*d_hat, K*d_hat)).
         """
-        from simplexspline.spline.solve import solve_constrained
+        from simplexspline.spline.fit.constrained import solve_constrained
 
         if not isinstance(normal_equations, VaryingNormalEquations):
             raise InputError("solve() takes a VaryingNormalEquations accumulator (from "
@@ -400,7 +400,7 @@ class VaryingCoefficientSpace:
             coef, info = solve_constrained(normal_equations, self.system,
                                            on_insufficient=on_insufficient, ridge=ridge)
         else:
-            from simplexspline.spline.penalty import solve_penalized
+            from simplexspline.spline.fit.penalty import solve_penalized
 
             P = self.penalty_blocks(penalty) if isinstance(penalty, str) else penalty
             coef, info = solve_penalized(normal_equations, self.system, penalty=P,
@@ -507,13 +507,13 @@ class VaryingCoefficientSpline:
 
     def save(self, path):
         """Write the model (``.json`` or ``.npz``, atomically; see docs/model-format.md)."""
-        from simplexspline.spline.io import save_spline
+        from simplexspline.spline.formats.model_file import save_spline
 
         return save_spline(self, path)
 
     @staticmethod
     def load(path) -> VaryingCoefficientSpline:
-        from simplexspline.spline.io import load_spline
+        from simplexspline.spline.formats.model_file import load_spline
 
         out = load_spline(path)
         if not isinstance(out, VaryingCoefficientSpline):

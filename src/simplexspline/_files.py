@@ -1,0 +1,88 @@
+"""Writing files safely and as open JSON: atomic writes, JSON conversion of numpy values.
+
+Every file the project writes goes through :func:`atomic_write`: a temporary file next to
+the target, flushed, then renamed over it, so a reader sees the old file or the new one,
+never half of one. :func:`jsonable` turns numpy scalars and arrays (and tuples, sets, NaN)
+into plain JSON values.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["atomic_write", "jsonable", "write_bytes", "write_text"]
+
+
+def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Path:
+    """Call ``write(tmp_path)`` for a temporary file next to ``path``, then rename it.
+
+    A failed or interrupted write never leaves a partial file at ``path`` (nor the
+    temporary file).
+
+    Parameters
+    ----------
+    path : path-like
+        The file to (re)place.
+    write : callable
+        Writes the whole content to the path it is given.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (flushed to disk before the rename)."""
+    def write(tmp):
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    return atomic_write(path, write)
+
+
+def write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    return write_bytes(path, text.encode("utf-8"))
+
+
+def jsonable(obj):
+    """A copy of ``obj`` that :func:`json.dumps` writes as standard JSON.
+
+    Mappings become dicts with string keys; lists, tuples, sets and arrays become lists;
+    numpy scalars become Python scalars; NaN and infinities become ``None`` (JSON has no
+    such numbers). Other values are returned as they are.
+    """
+    if isinstance(obj, Mapping):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, set, frozenset)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        return v if math.isfinite(v) else None
+    return obj

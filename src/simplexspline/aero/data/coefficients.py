@@ -1,0 +1,149 @@
+"""Aerodynamic force and moment coefficients from (reconstructed) flight data: Eq. 43-48.
+
+de Visser, Mulder and Chu (AIAA 2010-7950), Eq. 43-48, with ``qbar = rho V^2 / 2``::
+
+    CX = (m ax - Tx) / (qbar S)
+    CY = (m ay - Ty) / (qbar S)
+    CZ = (m az - Tz) / (qbar S)
+    Cl = (Ixx pdot - (Iyy - Izz) q r - Ixz (rdot + p q) - Tl) / (qbar S b)
+    Cm = (Iyy qdot - (Izz - Ixx) r p - Ixz (r^2 - p^2) - Tm) / (qbar S cbar)
+    Cn = (Izz rdot - (Ixx - Iyy) p q - Ixz (pdot - q r) - Tn) / (qbar S b)
+
+Thrust: when all six ``thrust_x .. thrust_n`` columns are present the thrust forces and
+moments T are subtracted (aerodynamic coefficients); otherwise T = 0 and the coefficients
+include thrust, as in the paper, and the result is flagged (``thrust_subtracted`` False).
+``Ixz`` has the sign of the paper (the schema's convention). Angular accelerations come from
+the ``pdot, qdot, rdot`` columns or, when absent (or on request), from the rates by smoothed
+differentiation (:func:`~simplexspline.aero.data.differentiation.midpoint_derivative`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from simplexspline.aero.data.differentiation import midpoint_derivative
+from simplexspline.errors import FlightDataError, InputError
+
+__all__ = ["COEFFICIENT_NAMES", "RATE_NAMES", "THRUST_COLUMNS", "aerodynamic_coefficients",
+           "angular_accelerations"]
+
+#: Columns added by :func:`aerodynamic_coefficients`.
+COEFFICIENT_NAMES: tuple[str, ...] = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
+#: Non-dimensional rates p b / 2V, q cbar / 2V, r b / 2V.
+RATE_NAMES: tuple[str, ...] = ("phat", "qhat", "rhat")
+THRUST_COLUMNS: tuple[str, ...] = ("thrust_x", "thrust_y", "thrust_z", "thrust_l", "thrust_m",
+                                   "thrust_n")
+_NEEDED = ("maneuver", "t", "tas", "rho", "p", "q", "r", "ax", "ay", "az", "mass", "Ixx", "Iyy",
+           "Izz", "Ixz")
+
+
+def angular_accelerations(df, *, half_window: int = 8, degree: int = 4) -> np.ndarray:
+    """pdot, qdot, rdot [rad/s^2] by smoothed differentiation of p, q, r per maneuver.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Columns ``maneuver``, ``t``, ``p``, ``q``, ``r``; uniform sampling within a maneuver.
+    half_window, degree : int
+        See :func:`~simplexspline.aero.data.differentiation.midpoint_derivative`.
+
+    Returns
+    -------
+    (n, 3) ndarray
+        In the row order of ``df``; NaN for maneuvers with a NaN rate.
+    """
+    man = df["maneuver"].to_numpy()
+    t = df["t"].to_numpy(dtype=float)
+    rates = df[["p", "q", "r"]].to_numpy(dtype=float)
+    out = np.full((len(df), 3), np.nan)
+    order = np.argsort(man, kind="stable")
+    bounds = np.flatnonzero(np.diff(man[order])) + 1
+    for idx in np.split(order, bounds):
+        if idx.size < 2:
+            continue
+        idx = idx[np.argsort(t[idx], kind="stable")]
+        dt = float(np.median(np.diff(t[idx])))
+        for j in range(3):
+            x = rates[idx, j]
+            if np.isfinite(x).all():
+                out[idx, j] = midpoint_derivative(x, dt, half_window, degree)
+    return out
+
+
+def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
+                             accelerations: str = "auto", half_window: int = 8,
+                             degree: int = 4):
+    """Force and moment coefficients (Eq. 43-48) and non-dimensional rates.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Flight data in the schema (SI units); ideally reconstructed (bias-corrected) data.
+    metadata : mapping, optional
+        Schema metadata with ``S`` [m^2], ``b`` [m], ``cbar`` [m]; ``df.attrs`` if None.
+    accelerations : {'auto', 'measured', 'differentiate'}
+        Where pdot, qdot, rdot come from: the columns ('measured'), smoothed
+        differentiation of p, q, r ('differentiate'), or the columns when present ('auto').
+    half_window, degree : int
+        Differentiation settings.
+
+    Returns
+    -------
+    coefficients : pandas.DataFrame
+        Columns ``CX, CY, CZ, Cl, Cm, Cn, phat, qhat, rhat`` (and ``pdot, qdot, rdot`` as
+        used), same index as ``df``.
+    thrust_subtracted : bool
+        True when the thrust columns were present and subtracted; False when the
+        coefficients include thrust (as in the paper).
+
+    Raises
+    ------
+    FlightDataError
+        A needed column or metadata key is missing.
+    """
+    import pandas as pd
+
+    meta = df.attrs if metadata is None else metadata
+    for key in ("S", "b", "cbar"):
+        if key not in meta:
+            raise FlightDataError(f"metadata {key!r} is missing; the coefficients need the "
+                                  "reference area S, span b and chord cbar")
+    S, b, c = float(meta["S"]), float(meta["b"]), float(meta["cbar"])
+    missing = [n for n in _NEEDED if n not in df.columns]
+    if missing:
+        raise FlightDataError(f"column(s) {missing} needed for the coefficients are missing")
+    if accelerations not in ("auto", "measured", "differentiate"):
+        raise InputError("accelerations must be 'auto', 'measured' or 'differentiate', got "
+                         f"{accelerations!r}")
+    have = all(n in df.columns for n in ("pdot", "qdot", "rdot"))
+    if accelerations == "measured" and not have:
+        raise FlightDataError("accelerations='measured' but column(s) pdot, qdot, rdot are "
+                              "missing: use accelerations='differentiate'")
+    if accelerations == "differentiate" or (accelerations == "auto" and not have):
+        acc = angular_accelerations(df, half_window=half_window, degree=degree)
+    else:
+        acc = df[["pdot", "qdot", "rdot"]].to_numpy(dtype=float)
+    col = {n: df[n].to_numpy(dtype=float) for n in _NEEDED[2:]}
+    thrust = all(n in df.columns for n in THRUST_COLUMNS)
+    T = ([df[n].to_numpy(dtype=float) for n in THRUST_COLUMNS] if thrust
+         else [0.0] * 6)
+    V, m = col["tas"], col["mass"]
+    p, q, r = col["p"], col["q"], col["r"]
+    pd_, qd, rd = acc[:, 0], acc[:, 1], acc[:, 2]
+    Ixx, Iyy, Izz, Ixz = col["Ixx"], col["Iyy"], col["Izz"], col["Ixz"]
+    qS = 0.5 * col["rho"] * V * V * S
+    out = {
+        "CX": (m * col["ax"] - T[0]) / qS,
+        "CY": (m * col["ay"] - T[1]) / qS,
+        "CZ": (m * col["az"] - T[2]) / qS,
+        "Cl": (Ixx * pd_ - (Iyy - Izz) * q * r - Ixz * (rd + p * q) - T[3]) / (qS * b),
+        "Cm": (Iyy * qd - (Izz - Ixx) * r * p - Ixz * (r * r - p * p) - T[4]) / (qS * c),
+        "Cn": (Izz * rd - (Ixx - Iyy) * p * q - Ixz * (pd_ - q * r) - T[5]) / (qS * b),
+        "phat": p * b / (2 * V),
+        "qhat": q * c / (2 * V),
+        "rhat": r * b / (2 * V),
+        "pdot": pd_, "qdot": qd, "rdot": rd,
+    }
+    return pd.DataFrame(out, index=df.index), bool(thrust)

@@ -1,0 +1,522 @@
+"""Read, validate and write flight data in the simplexspline flight-data schema, version 1.
+
+One table, one row per sample, SI units and radians, body axes (x forward, y right,
+z down). The schema is documented column by column in ``docs/flight-data-schema.md``;
+:data:`FLIGHT_DATA_COLUMNS` is the same table in code. Files are Parquet (metadata in the
+Parquet key-value metadata) or CSV with a JSON sidecar ``<file>.csv.json``.
+
+Validation raises :class:`~simplexspline.errors.FlightDataError` naming the offending
+column (missing required columns, wrong unit tags, wrong types, infinities, time not
+increasing within a maneuver, values that cannot be in the documented unit). NaN gaps are
+reported (:class:`FlightDataReport`, and a :class:`FlightDataWarning` unless
+``nan="ignore"``), never interpolated.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from simplexspline.errors import FlightDataError, InputError
+from simplexspline.spline.formats.model_file import atomic_write
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "ColumnSpec",
+    "FLIGHT_DATA_COLUMNS",
+    "REQUIRED_COLUMNS",
+    "REQUIRED_METADATA",
+    "FlightDataReport",
+    "NanGap",
+    "FlightDataWarning",
+    "validate_flight_data",
+    "read_flight_data",
+    "write_flight_data",
+    "sidecar_path",
+]
+
+SCHEMA_VERSION = "simplexspline.flightdata/1"
+
+
+class FlightDataWarning(UserWarning):
+    """Flight data that are valid but need attention (e.g. NaN gaps)."""
+
+
+@dataclass(frozen=True)
+class ColumnSpec:
+    """One column of the schema.
+
+    Attributes
+    ----------
+    name : str
+    unit : str
+        SI unit tag ('-' for dimensionless, '' for labels).
+    kind : {'float', 'int', 'str'}
+    required : bool
+    description : str
+        Meaning, frame and sign convention.
+    """
+
+    name: str
+    unit: str
+    kind: str
+    required: bool
+    description: str
+
+
+def _spec(rows, required: bool, kind: str = "float") -> dict:
+    return {n: ColumnSpec(n, unit, kind, required, d) for n, unit, d in rows}
+
+
+_ID = [
+    ("t", "s", "time since the start of the maneuver, strictly increasing within it"),
+    ("alpha", "rad", "angle of attack, atan(w/u) of the air-relative velocity in body axes"),
+    ("beta", "rad", "sideslip angle, asin(v/V); positive with the wind from the right"),
+    ("tas", "m/s", "true airspeed"),
+    ("mach", "-", "Mach number"),
+    ("h", "m", "pressure altitude (ISA)"),
+    ("rho", "kg/m^3", "air density"),
+    ("p", "rad/s", "roll rate about body x (right wing down positive), inertial"),
+    ("q", "rad/s", "pitch rate about body y (nose up positive), inertial"),
+    ("r", "rad/s", "yaw rate about body z (nose right positive), inertial"),
+    ("phi", "rad", "bank angle (Euler 3-2-1, right wing down positive)"),
+    ("theta", "rad", "pitch attitude (Euler 3-2-1, nose up positive)"),
+    ("psi", "rad", "heading (Euler 3-2-1, from true north, east positive), in [-pi, pi)"),
+    ("ax", "m/s^2", "specific force along body x at the c.g. (non-gravitational force/mass)"),
+    ("ay", "m/s^2", "specific force along body y at the c.g."),
+    ("az", "m/s^2", "specific force along body z at the c.g. (about -g in level flight)"),
+    ("de", "rad", "elevator deflection (sign convention in metadata 'sign_conventions')"),
+    ("da", "rad", "aileron deflection (sign convention in metadata 'sign_conventions')"),
+    ("dr", "rad", "rudder deflection (sign convention in metadata 'sign_conventions')"),
+    ("mass", "kg", "aircraft mass"),
+    ("Ixx", "kg m^2", "moment of inertia about body x, about the c.g."),
+    ("Iyy", "kg m^2", "moment of inertia about body y, about the c.g."),
+    ("Izz", "kg m^2", "moment of inertia about body z, about the c.g."),
+    ("Ixz", "kg m^2", "product of inertia, sign of the paper's Eq. 46-48 (Ixz = int x z dm)"),
+]
+_OPT = [
+    ("pdot", "rad/s^2", "roll acceleration (body, inertial)"),
+    ("qdot", "rad/s^2", "pitch acceleration (body, inertial)"),
+    ("rdot", "rad/s^2", "yaw acceleration (body, inertial)"),
+    ("thrust_x", "N", "thrust force along body x (removed from the aerodynamic coefficients)"),
+    ("thrust_y", "N", "thrust force along body y"),
+    ("thrust_z", "N", "thrust force along body z"),
+    ("thrust_l", "N m", "thrust rolling moment about the c.g."),
+    ("thrust_m", "N m", "thrust pitching moment about the c.g."),
+    ("thrust_n", "N m", "thrust yawing moment about the c.g."),
+    ("dte", "rad", "elevator trim tab deflection"),
+    ("flap", "rad", "flap deflection (for the simulated f16: the leading-edge flap)"),
+    ("gear", "-", "landing gear position, 0 up .. 1 down"),
+    ("speedbrake", "-", "speedbrake position, 0 retracted .. 1 extended"),
+    ("x_gps", "m", "GPS north position from the maneuver's first sample (local flat earth)"),
+    ("y_gps", "m", "GPS east position from the maneuver's first sample"),
+    ("z_gps", "m", "GPS down position from the maneuver's first sample"),
+    ("vn_gps", "m/s", "GPS north velocity (Earth-relative)"),
+    ("ve_gps", "m/s", "GPS east velocity"),
+    ("vd_gps", "m/s", "GPS down velocity"),
+]
+_TRUE_EXTRA = [
+    ("true_qbar", "Pa", "true dynamic pressure 0.5 rho V^2"),
+    ("true_CX", "-", "aerodynamic force coefficient along body x, thrust excluded"),
+    ("true_CY", "-", "aerodynamic force coefficient along body y, thrust excluded"),
+    ("true_CZ", "-", "aerodynamic force coefficient along body z, thrust excluded"),
+    ("true_Cl", "-", "aerodynamic rolling-moment coefficient about the c.g. (ref. S b)"),
+    ("true_Cm", "-", "aerodynamic pitching-moment coefficient about the c.g. (ref. S cbar)"),
+    ("true_Cn", "-", "aerodynamic yawing-moment coefficient about the c.g. (ref. S b)"),
+    ("true_CL", "-", "lift coefficient, CX sin(alpha) - CZ cos(alpha)"),
+    ("true_CD", "-", "drag coefficient (wind axes), -(CX ca cb + CY sb + CZ sa cb)"),
+]
+_TRUE_OF = [r for r in _ID + _OPT if r[0] not in
+            ("t", "mass", "Ixx", "Iyy", "Izz", "Ixz") and not r[0].startswith("thrust")
+            and r[0] not in ("dte", "flap", "gear", "speedbrake")]
+
+#: Every column the schema knows, by name.
+FLIGHT_DATA_COLUMNS: dict[str, ColumnSpec] = {
+    "maneuver": ColumnSpec("maneuver", "", "int", True,
+                           "maneuver id; validation splits are made by maneuver"),
+    **_spec(_ID, True),
+    **_spec(_OPT, False),
+    "condition": ColumnSpec("condition", "", "int", False, "flight-condition id"),
+    "maneuver_type": ColumnSpec("maneuver_type", "", "str", False,
+                                "e.g. '3211-elevator', 'doublet-rudder', 'sum-of-sines'"),
+    **{f"true_{n}": ColumnSpec(f"true_{n}", unit, "float", False, f"true value of '{n}'")
+       for n, unit, _ in _TRUE_OF},
+    **_spec(_TRUE_EXTRA, False),
+}
+
+#: Columns every file must have.
+REQUIRED_COLUMNS: tuple[str, ...] = tuple(n for n, s in FLIGHT_DATA_COLUMNS.items()
+                                          if s.required)
+#: Metadata keys every file must have (S, b, cbar in m^2, m, m).
+REQUIRED_METADATA: tuple[str, ...] = ("schema", "aircraft", "S", "b", "cbar")
+
+# plausibility bounds of values in the documented unit: (low, high, hint)
+_BOUNDS = {
+    "alpha": (-math.pi / 2, math.pi / 2, "radians"), "beta": (-math.pi / 2, math.pi / 2,
+                                                              "radians"),
+    "phi": (-2 * math.pi, 2 * math.pi, "radians"), "theta": (-math.pi / 2, math.pi / 2,
+                                                             "radians"),
+    "psi": (-2 * math.pi, 2 * math.pi, "radians"), "de": (-math.pi / 2, math.pi / 2,
+                                                          "radians"),
+    "da": (-math.pi / 2, math.pi / 2, "radians"), "dr": (-math.pi / 2, math.pi / 2,
+                                                         "radians"),
+    "tas": (0.0, math.inf, "m/s"), "rho": (0.0, 5.0, "kg/m^3"), "mass": (0.0, math.inf, "kg"),
+    "Ixx": (0.0, math.inf, "kg m^2"), "Iyy": (0.0, math.inf, "kg m^2"),
+    "Izz": (0.0, math.inf, "kg m^2"), "mach": (0.0, 10.0, "-"),
+}
+_POSITIVE = {"tas", "rho", "mass", "Ixx", "Iyy", "Izz"}
+
+
+@dataclass(frozen=True)
+class NanGap:
+    """A run of NaN in one column within one maneuver.
+
+    Attributes
+    ----------
+    column : str
+    maneuver : int
+    t_start : float
+        Time of the first NaN sample [s].
+    samples : int
+        Length of the run.
+    """
+
+    column: str
+    maneuver: int
+    t_start: float
+    samples: int
+
+
+@dataclass
+class FlightDataReport:
+    """What validation found.
+
+    Attributes
+    ----------
+    rows, maneuvers : int
+    nan_gaps : list of NanGap
+    unknown_columns : list of str
+        Columns the schema does not define (kept, not checked).
+    """
+
+    rows: int
+    maneuvers: int
+    nan_gaps: list = field(default_factory=list)
+    unknown_columns: list = field(default_factory=list)
+
+    def summary(self) -> str:
+        """One-paragraph human-readable summary."""
+        s = f"{self.rows} rows in {self.maneuvers} maneuvers"
+        if self.nan_gaps:
+            cols = sorted({g.column for g in self.nan_gaps})
+            s += (f"; {len(self.nan_gaps)} NaN gap(s) in column(s) {cols} "
+                  f"(first: {self.nan_gaps[0]})")
+        return s
+
+
+def _fail(msg: str):
+    raise FlightDataError(msg)
+
+
+def _check_metadata(metadata) -> None:
+    if not isinstance(metadata, Mapping):
+        _fail("flight-data metadata must be a mapping (dict); got "
+              f"{type(metadata).__name__}")
+    for key in REQUIRED_METADATA:
+        if key not in metadata:
+            _fail(f"metadata key {key!r} is missing; the schema requires "
+                  f"{list(REQUIRED_METADATA)}")
+    if metadata["schema"] != SCHEMA_VERSION:
+        _fail(f"metadata 'schema' is {metadata['schema']!r}; this version of simplexspline "
+              f"reads {SCHEMA_VERSION!r}")
+    for key in ("S", "b", "cbar"):
+        try:
+            v = float(metadata[key])
+        except (TypeError, ValueError):
+            v = math.nan
+        if not (math.isfinite(v) and v > 0):
+            _fail(f"metadata {key!r} must be a positive number (SI: m^2 for S, m for b and "
+                  f"cbar); got {metadata[key]!r}")
+    units = metadata.get("units", {})
+    if not isinstance(units, Mapping):
+        _fail("metadata 'units' must map column names to unit strings")
+
+
+def _nan_runs(values: np.ndarray, maneuver: np.ndarray, t: np.ndarray, column: str) -> list:
+    bad = np.isnan(values)
+    if not bad.any():
+        return []
+    edges = np.diff(np.concatenate(([0], bad.view(np.int8), [0])))
+    # a maneuver change also starts a new run
+    starts = np.flatnonzero(edges == 1)
+    stops = np.flatnonzero(edges == -1)
+    gaps = []
+    for a, z in zip(starts, stops):
+        m = maneuver[a:z]
+        cuts = np.flatnonzero(np.diff(m)) + 1
+        for s0, s1 in zip(np.r_[0, cuts], np.r_[cuts, z - a]):
+            gaps.append(NanGap(column, int(m[s0]), float(t[a + s0]), int(s1 - s0)))
+    return gaps
+
+
+def validate_flight_data(df, metadata: Mapping | None = None, *,
+                         nan: str = "warn") -> FlightDataReport:
+    """Check a table and its metadata against the schema.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        One row per sample.
+    metadata : mapping, optional
+        The schema metadata; ``df.attrs`` if None.
+    nan : {'warn', 'raise', 'ignore'}
+        What to do about NaN gaps (always listed in the report).
+
+    Returns
+    -------
+    FlightDataReport
+
+    Raises
+    ------
+    FlightDataError
+        Naming the offending column or metadata key.
+    """
+    import pandas as pd
+
+    if nan not in ("warn", "raise", "ignore"):
+        raise InputError(f"nan must be 'warn', 'raise' or 'ignore', got {nan!r}")
+    if not isinstance(df, pd.DataFrame):
+        _fail(f"flight data must be a pandas DataFrame, got {type(df).__name__}")
+    metadata = df.attrs if metadata is None else metadata
+    _check_metadata(metadata)
+    units = metadata.get("units", {})
+    missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
+    if missing:
+        _fail(f"required column(s) {missing} missing; the schema requires "
+              f"{list(REQUIRED_COLUMNS)} (see docs/flight-data-schema.md)")
+    for name in df.columns:
+        spec = FLIGHT_DATA_COLUMNS.get(name)
+        if spec is None:
+            continue
+        tag = units.get(name)
+        if tag is not None and spec.unit and tag != spec.unit:
+            _fail(f"column {name!r} has unit {tag!r} in the metadata; the schema requires "
+                  f"{spec.unit!r}: convert the data and fix the unit tag")
+        col = df[name]
+        if spec.kind == "int":
+            if not pd.api.types.is_integer_dtype(col.dtype):
+                _fail(f"column {name!r} must hold integers, got dtype {col.dtype}")
+        elif spec.kind == "str":
+            if not (pd.api.types.is_string_dtype(col.dtype)
+                    or isinstance(col.dtype, pd.CategoricalDtype)):
+                _fail(f"column {name!r} must hold strings, got dtype {col.dtype}")
+        else:
+            if not (pd.api.types.is_numeric_dtype(col.dtype)
+                    and not pd.api.types.is_bool_dtype(col.dtype)):
+                _fail(f"column {name!r} must be numeric, got dtype {col.dtype}")
+    maneuver = df["maneuver"].to_numpy()
+    t = df["t"].to_numpy(dtype=float)
+    gaps = []
+    for name in df.columns:
+        spec = FLIGHT_DATA_COLUMNS.get(name)
+        if spec is None or spec.kind != "float":
+            continue
+        x = df[name].to_numpy(dtype=float)
+        if np.isinf(x).any():
+            row = int(np.flatnonzero(np.isinf(x))[0])
+            _fail(f"column {name!r} contains infinite values (first at row {row})")
+        gaps.extend(_nan_runs(x, maneuver, t, name))
+        if name in _BOUNDS and len(x):
+            lo, hi, unit = _BOUNDS[name]
+            with np.errstate(invalid="ignore"):
+                outside = (x <= lo) | (x > hi) if name in _POSITIVE else (x < lo) | (x > hi)
+            if outside.any():
+                row = int(np.flatnonzero(outside)[0])
+                _fail(f"column {name!r} has value {x[row]:.6g} at row {row}, impossible in "
+                      f"{unit} (allowed {lo:.4g} .. {hi:.4g}): check its unit")
+    if np.isnan(t).any():
+        _fail("column 't' contains NaN; time must be known for every sample")
+    if len(t) > 1:
+        order = np.argsort(maneuver, kind="stable")
+        ms, ts = maneuver[order], t[order]
+        same = ms[1:] == ms[:-1]
+        bad = same & ~(np.diff(ts) > 0)
+        if bad.any():
+            j = int(np.flatnonzero(bad)[0])
+            _fail(f"column 't' is not strictly increasing within maneuver {int(ms[j])} "
+                  f"(row {int(order[j + 1])}: t = {ts[j + 1]:.6g} s after {ts[j]:.6g} s)")
+    report = FlightDataReport(
+        rows=len(df), maneuvers=int(len(np.unique(maneuver))), nan_gaps=gaps,
+        unknown_columns=[c for c in df.columns if c not in FLIGHT_DATA_COLUMNS])
+    if gaps and nan == "raise":
+        g = gaps[0]
+        _fail(f"column {g.column!r} has {g.samples} NaN sample(s) in maneuver {g.maneuver} "
+              f"from t = {g.t_start:.6g} s ({len(gaps)} gap(s) in total); NaN gaps are "
+              "never interpolated: remove or repair them")
+    if gaps and nan == "warn":
+        warnings.warn(f"flight data: {report.summary()}", FlightDataWarning, stacklevel=2)
+    return report
+
+
+def _json_default(o):
+    if isinstance(o, np.integer):
+        return int(o)
+    if isinstance(o, np.floating):
+        return float(o)
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (set, tuple)):
+        return list(o)
+    raise TypeError(f"metadata value of type {type(o).__name__} is not JSON-serialisable")
+
+
+def sidecar_path(path: str | os.PathLike) -> Path:
+    """The JSON sidecar of a CSV file: ``<file>.csv.json``."""
+    p = Path(path)
+    return p.with_name(p.name + ".json")
+
+
+def _format(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix in (".parquet", ".pq"):
+        return "parquet"
+    if suffix == ".csv":
+        return "csv"
+    raise InputError(f"unknown flight-data file type {path.suffix!r} for {str(path)!r}: "
+                     "use .parquet (preferred) or .csv")
+
+
+def write_flight_data(df, path: str | os.PathLike, metadata: Mapping | None = None) -> Path:
+    """Validate and write flight data atomically (temporary file + ``os.replace``).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+    path : path-like
+        ``.parquet`` (metadata in the Parquet key-value metadata, one key per metadata
+        entry, JSON-encoded values) or ``.csv`` (metadata in ``<file>.csv.json``).
+    metadata : mapping, optional
+        Schema metadata; ``df.attrs`` if None. ``schema`` is filled in if absent and the
+        ``units`` of the schema's columns are added.
+
+    Returns
+    -------
+    pathlib.Path
+        The written data file.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    fmt = _format(path)
+    meta = dict(df.attrs if metadata is None else metadata)
+    meta.setdefault("schema", SCHEMA_VERSION)
+    units = dict(meta.get("units", {}))
+    for name in df.columns:
+        if name in FLIGHT_DATA_COLUMNS and FLIGHT_DATA_COLUMNS[name].unit:
+            units.setdefault(name, FLIGHT_DATA_COLUMNS[name].unit)
+    meta["units"] = units
+    validate_flight_data(df, meta, nan="ignore")
+    if not path.parent.is_dir():
+        raise InputError(f"cannot write {str(path)!r}: directory {str(path.parent)!r} "
+                         "does not exist")
+    encoded = {k: json.dumps(v, default=_json_default) for k, v in meta.items()}
+    plain = pd.DataFrame(df, copy=False)
+    plain.attrs = {}
+    if fmt == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.Table.from_pandas(plain, preserve_index=False)
+        kv = dict(table.schema.metadata or {})
+        kv.update({k.encode(): v.encode() for k, v in encoded.items()})
+        table = table.replace_schema_metadata(kv)
+        # dictionary-encode only labels and ids: trying it on float columns costs time
+        # and gains nothing for sensor data
+        labels = [c for c in plain.columns if not pd.api.types.is_float_dtype(plain[c].dtype)]
+        atomic_write(path, lambda tmp: pq.write_table(table, tmp, use_dictionary=labels))
+    else:
+        atomic_write(path, lambda tmp: plain.to_csv(tmp, index=False, float_format="%.17g"))
+        side = sidecar_path(path)
+        text = json.dumps(meta, default=_json_default, indent=1)
+        atomic_write(side, lambda tmp: Path(tmp).write_text(text))
+    return path
+
+
+def read_flight_data(path: str | os.PathLike, *, validate: bool = True,
+                     nan: str = "warn"):
+    """Read flight data and their metadata.
+
+    Parameters
+    ----------
+    path : path-like
+        A ``.parquet`` file, or a ``.csv`` file with its ``<file>.csv.json`` sidecar.
+    validate : bool
+        Check the data against the schema (recommended).
+    nan : {'warn', 'raise', 'ignore'}
+        Handling of NaN gaps (see :func:`validate_flight_data`).
+
+    Returns
+    -------
+    df : pandas.DataFrame
+        The table; ``df.attrs`` holds the metadata too.
+    metadata : dict
+
+    Raises
+    ------
+    FlightDataError
+        If the file is missing, unreadable, or not in the schema.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    fmt = _format(path)
+    if not path.is_file():
+        _fail(f"flight-data file {str(path)!r} does not exist")
+    if fmt == "parquet":
+        import pyarrow.parquet as pq
+
+        try:
+            table = pq.read_table(path)
+        except Exception as exc:  # pyarrow raises several types for corrupt files
+            _fail(f"cannot read Parquet file {str(path)!r}: {exc}")
+        meta = {}
+        for k, v in (table.schema.metadata or {}).items():
+            key = k.decode()
+            if key == "pandas" or key.startswith("ARROW:"):
+                continue
+            try:
+                meta[key] = json.loads(v)
+            except ValueError:
+                meta[key] = v.decode(errors="replace")
+        df = table.to_pandas()
+    else:
+        side = sidecar_path(path)
+        if not side.is_file():
+            _fail(f"CSV flight data need their metadata sidecar {str(side)!r}; it does not "
+                  "exist")
+        try:
+            meta = json.loads(side.read_text())
+        except ValueError as exc:
+            _fail(f"metadata sidecar {str(side)!r} is not valid JSON: {exc}")
+        try:
+            df = pd.read_csv(path, engine="pyarrow")
+        except Exception as exc:  # pyarrow raises several types for malformed CSV
+            _fail(f"cannot read CSV file {str(path)!r}: {exc}")
+        for name in df.columns:  # '%.17g' writes integral floats without a decimal point
+            spec = FLIGHT_DATA_COLUMNS.get(name)
+            if spec is not None and spec.kind == "float" and \
+                    pd.api.types.is_integer_dtype(df[name].dtype):
+                df[name] = df[name].astype(float)
+        if "maneuver_type" in df.columns:
+            df["maneuver_type"] = df["maneuver_type"].astype("category")
+    if validate:
+        validate_flight_data(df, meta, nan=nan)
+    df.attrs = dict(meta)
+    return df, meta

@@ -1,0 +1,1 @@
+"""Aerodynamic model structures and models: notation, structures, presets, priors, the model."""

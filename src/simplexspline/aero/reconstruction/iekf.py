@@ -1,0 +1,210 @@
+"""Iterated extended Kalman filter and Rauch-Tung-Striebel smoother for one maneuver.
+
+Private numeric kernels on plain arrays; the state and measurement equations are in
+:mod:`simplexspline.aero.reconstruction.kinematics`, the per-maneuver driver (initialisation, checks,
+outputs) in :mod:`simplexspline.aero.reconstruction.reconstruct`.
+
+Measurement update (iterated, Gauss-Newton on the measurement equation; Jazwinski 1970)::
+
+    x_0 = x_pred
+    x_{i+1} = x_pred + K_i (z - h(x_i) - H_i (x_pred - x_i)),   K_i = P H_i' (H_i P H_i' + R)^-1
+
+Stopping criterion: the iteration stops when the change the *next* iteration would make is
+below ``tol`` predicted standard deviations in every state,
+``max_j |K_i (h(x_i) + H_i (x_{i+1} - x_i) - h(x_{i+1}))|_j / sigma_pred,j < tol``
+(to first order the next relinearisation only corrects the linearisation error at
+``x_{i+1}``; estimated with the current gain, so a converged update costs one gain and one
+extra evaluation of h), or after ``max_iter`` gains. The covariance is updated once with the
+last gain in Joseph form. Time update: ``kinematics.propagate`` (the discretisation
+matched to JSBSim), ``P = F P F' + G Sigma_u G' + Q_model``, where the IMU noise enters
+through G (the input columns of the transition matrix).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg.lapack import dposv
+
+from simplexspline.aero.reconstruction.kinematics import NX, NZ, PSI_MEAS, EarthModel, measure, propagate
+
+__all__ = ["run_filter", "rts_smooth"]
+
+_TWO_PI = 2.0 * math.pi
+
+
+def _wrap(res: np.ndarray, j: int) -> np.ndarray:
+    """Wrap the heading component ``j`` (if >= 0) of a residual to [-pi, pi)."""
+    if j >= 0:
+        res[j] = (res[j] + math.pi) % _TWO_PI - math.pi
+    return res
+
+
+def run_filter(x0: np.ndarray, P0: np.ndarray, u: np.ndarray, z: np.ndarray, dt: float,
+               g: np.ndarray, earth: EarthModel, sigma_u: np.ndarray, q_model: np.ndarray,
+               r_meas: np.ndarray, *, tol: float = 1e-3, max_iter: int = 10) -> dict:
+    """Forward pass of the iterated extended Kalman filter.
+
+    Parameters
+    ----------
+    x0 : (18,) ndarray
+        Initial state estimate.
+    P0 : (18, 18) ndarray
+        Its covariance.
+    u : (n, 6) ndarray
+        Measured IMU inputs (``ax, ay, az`` [m/s^2], ``p, q, r`` [rad/s]); finite.
+    z : (n, 12) ndarray
+        Measurements (:data:`~simplexspline.aero.reconstruction.kinematics.MEASUREMENT_NAMES`); NaN marks a
+        missing sample, which is skipped.
+    dt : float
+        Sample interval [s].
+    g : (n,) ndarray
+        Gravity [m/s^2] per sample.
+    earth : EarthModel
+    sigma_u : (6,) ndarray
+        IMU white-noise standard deviations per sample.
+    q_model : (18,) ndarray
+        Additional process-noise variances per step (model errors).
+    r_meas : (12,) ndarray
+        Measurement-noise standard deviations.
+    tol : float
+        Stopping criterion of the iterated update (the next iteration's estimated state
+        change, in predicted sigmas).
+    max_iter : int
+        Maximum number of gain computations of one update.
+
+    Returns
+    -------
+    dict
+        ``x_filt`` (n, 18), ``P_filt`` (n, 18, 18), ``x_pred`` (n, 18) and ``P_pred``
+        (n, 18, 18) (row k is the prediction of sample k; row 0 is the prior), ``F``
+        (n, 18, 18) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
+        prediction (NaN where not measured), ``innov_var`` (n, 12) their predicted variances,
+        ``iterations`` (n,) int.
+    """
+    n = u.shape[0]
+    x_filt = np.empty((n, NX))
+    P_filt = np.empty((n, NX, NX))
+    x_pred = np.empty((n, NX))
+    P_pred = np.empty((n, NX, NX))
+    Fs = np.zeros((n, NX, NX))
+    Fs[:, np.arange(NX), np.arange(NX)] = 1.0     # propagate writes the non-trivial entries
+    innov = np.full((n, NZ), np.nan)
+    innov_var = np.full((n, NZ), np.nan)
+    iters = np.zeros(n, dtype=np.int64)
+    R_full = np.diag(r_meas ** 2)
+    var_u = sigma_u ** 2
+    eye = np.eye(NX)
+    H = np.zeros((NZ, NX))
+    finite = np.isfinite(z)
+    all_ok = finite.all(axis=1)
+    x = np.array(x0, dtype=float)
+    P = np.array(P0, dtype=float)
+    Qm = np.diag(q_model)
+    for k in range(n):
+        x_pred[k] = x
+        P_pred[k] = P
+        # ---- iterated measurement update
+        zk = z[k]
+        if all_ok[k]:
+            sel = None
+            zz = zk
+            R = R_full
+            psi_j = PSI_MEAS
+        else:
+            sel = np.flatnonzero(finite[k])
+            zz = zk[sel]
+            R = R_full[np.ix_(sel, sel)]
+            j = np.flatnonzero(sel == PSI_MEAS)
+            psi_j = int(j[0]) if j.size else -1
+        if zz.size:
+            sig = np.sqrt(P.diagonal())
+            xi = x
+            it = 0
+            while True:
+                h = measure(xi, H)
+                Hs = H if sel is None else H[sel]
+                hs = h if sel is None else h[sel]
+                res = _wrap(zz - hs, psi_j)
+                PHt = P @ Hs.T
+                S = Hs @ PHt + R
+                if it == 0:
+                    if sel is None:
+                        innov[k] = res
+                        innov_var[k] = S.diagonal()
+                    else:
+                        innov[k, sel] = res
+                        innov_var[k, sel] = S.diagonal()
+                _, Kt, info = dposv(S, PHt.T)       # S symmetric positive definite
+                if info != 0:
+                    raise np.linalg.LinAlgError(
+                        f"innovation covariance not positive definite at sample {k}")
+                K = Kt.T
+                x_new = x + K @ (res - Hs @ (x - xi))
+                it += 1
+                # stopping criterion: the change the next iteration would make, in predicted
+                # sigmas. It is K (h(xi) + H (x_new - xi) - h(x_new)) to first order (the
+                # next relinearisation only corrects the linearisation error at x_new),
+                # estimated with the current gain: no new gain unless it is needed.
+                hn = measure(x_new, None)
+                lin_err = hs + Hs @ (x_new - xi) - (hn if sel is None else hn[sel])
+                step = np.max(np.abs(K @ _wrap(lin_err, psi_j)) / sig)
+                xi = x_new
+                if step < tol or it >= max_iter:
+                    break
+            iters[k] = it
+            IKH = eye - K @ Hs
+            P = IKH @ P @ IKH.T + K @ R @ K.T
+            x = xi
+        x_filt[k] = x
+        P_filt[k] = P
+        # ---- time update to k + 1
+        F = Fs[k]
+        x = propagate(x, u[k], dt, g[k], earth, F)
+        G = F[:9, 9:15]
+        P = F @ P @ F.T + Qm
+        P[:9, :9] += (G * var_u) @ G.T
+    return {"x_filt": x_filt, "P_filt": P_filt, "x_pred": x_pred, "P_pred": P_pred, "F": Fs,
+            "innov": innov, "innov_var": innov_var, "iterations": iters}
+
+
+def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Rauch-Tung-Striebel fixed-interval smoother over a forward pass.
+
+    ``x_s[k] = x_f[k] + C_k (x_s[k+1] - x_p[k+1])`` with ``C_k = P_f[k] F_k' P_p[k+1]^-1``
+    (all gains computed in one batched solve).
+
+    Parameters
+    ----------
+    out : dict
+        The result of :func:`run_filter`.
+    covariance : bool
+        Also return the diagonal of the smoothed covariance (one more pass with two matrix
+        products per sample).
+
+    Returns
+    -------
+    x_s : (n, 18) ndarray
+    var_s : (n, 18) ndarray or None
+        Smoothed variances, when ``covariance``.
+    """
+    xf, Pf, xp, Pp, F = out["x_filt"], out["P_filt"], out["x_pred"], out["P_pred"], out["F"]
+    n = xf.shape[0]
+    xs = xf.copy()
+    if n < 2:
+        return xs, (np.diagonal(Pf, axis1=1, axis2=2).copy() if covariance else None)
+    # C_k' = P_p[k+1]^-1 F_k P_f[k]   (P symmetric)
+    Ct = np.linalg.solve(Pp[1:], F[:-1] @ Pf[:-1])
+    C = np.transpose(Ct, (0, 2, 1))
+    for k in range(n - 2, -1, -1):
+        xs[k] = xf[k] + C[k] @ (xs[k + 1] - xp[k + 1])
+    var = None
+    if covariance:
+        var = np.empty((n, NX))
+        Ps = Pf[-1].copy()
+        var[-1] = np.diag(Ps)
+        for k in range(n - 2, -1, -1):
+            Ps = Pf[k] + C[k] @ (Ps - Pp[k + 1]) @ Ct[k]
+            var[k] = np.diag(Ps)
+    return xs, var

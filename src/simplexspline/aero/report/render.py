@@ -1,0 +1,110 @@
+"""Rendering the identification report's figures to PNG images.
+
+:class:`_Figure` is one rendered figure (its PNG bytes and caption, written as an HTML
+``<figure>`` with a base64 data URI or as a Markdown image link to ``figures/``),
+:class:`_Renderer` makes matplotlib figures with the object API (no pyplot, so the
+caller's backend is left alone) and saves them as PNG, and :func:`_render` runs the
+report's figure jobs, in forked worker processes where the platform has ``fork``.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from simplexspline.aero.report.markup import _esc, _md
+
+#: Dots per inch of the PNG figures.
+DPI = 90
+
+
+@dataclass
+class _Figure:
+    name: str
+    caption: str
+    png: bytes
+
+    @property
+    def path(self) -> str:
+        return f"figures/{self.name}.png"
+
+    def html(self) -> str:
+        data = base64.b64encode(self.png).decode("ascii")
+        return (f'<figure><img alt="{_esc(self.caption)}" src="data:image/png;base64,{data}">'
+                f"<figcaption>{_esc(self.caption)}</figcaption></figure>")
+
+    def md(self) -> str:
+        return f"![{_md(self.caption)}]({self.path})"
+
+
+class _Renderer:
+    """Makes matplotlib figures (object API, no pyplot) and renders them to PNG bytes."""
+
+    @staticmethod
+    def new(width: float, height: float, *, left: float = 0.75, right: float = 0.2,
+            bottom: float = 0.6, top: float = 0.3, wspace: float = 0.3,
+            hspace: float = 0.35):
+        """A figure with fixed margins in inches (no layout engine: twice as fast)."""
+        from matplotlib.figure import Figure, SubplotParams
+
+        pars = SubplotParams(left=left / width, right=1.0 - right / width,
+                             bottom=bottom / height, top=1.0 - top / height,
+                             wspace=wspace, hspace=hspace)
+        return Figure(figsize=(width, height), dpi=DPI, subplotpars=pars)
+
+    @staticmethod
+    def save(fig, name: str, caption: str) -> _Figure:
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=DPI, pil_kwargs={"compress_level": 2})
+        return _Figure(name, caption, buf.getvalue())
+
+
+#: Figure jobs of the report being written; set before forking the rendering workers,
+#: which inherit it (the jobs hold closures over the data, nothing is pickled).
+_JOBS: list = []
+
+
+def _run_job(index: int):
+    return _JOBS[index][1]()
+
+
+def _render(jobs: list, workers: int, say: Callable[[str], None]) -> list:
+    """Run the figure jobs ``(label, callable)``; forked worker processes when
+    ``workers > 1`` and the platform has ``fork``, else (or on pool failure) serially."""
+    global _JOBS
+    out: list = [None] * len(jobs)
+    done = [False] * len(jobs)
+    if workers > 1 and len(jobs) > 2:
+        import multiprocessing
+        import warnings
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            ctx = multiprocessing.get_context("fork")
+        except ValueError:
+            ctx = None
+        if ctx is not None:
+            _JOBS = jobs
+            try:
+                with warnings.catch_warnings():
+                    # Python >= 3.12 warns about fork() in a multi-threaded process; the
+                    # workers only run numpy and matplotlib
+                    warnings.simplefilter("ignore", DeprecationWarning)
+                    with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=ctx) as pool:
+                        futures = {pool.submit(_run_job, i): i for i in range(len(jobs))}
+                        for fut in as_completed(futures):
+                            i = futures[fut]
+                            out[i], done[i] = fut.result(), True
+                            say(f"report: figure {sum(done)}/{len(jobs)} ({jobs[i][0]})")
+            except (BrokenProcessPool, OSError):
+                pass  # render what is missing serially
+            finally:
+                _JOBS = []
+    for i, (label, job) in enumerate(jobs):
+        if not done[i]:
+            out[i], done[i] = job(), True
+            say(f"report: figure {sum(done)}/{len(jobs)} ({label})")
+    return out

@@ -1,0 +1,24 @@
+"""Model structure selection: validation splits and scores, search moves, the greedy search.
+
+:mod:`~simplexspline.aero.selection.validation` (splits by maneuver, RMS, relative RMS, R^2,
+residual analysis), :mod:`~simplexspline.aero.selection.moves` (a structure's neighbours) and
+:mod:`~simplexspline.aero.selection.search` (fit, cross-validate, search).
+"""
+
+from simplexspline.aero.selection.search import (
+    SelectionSettings,
+    Trial,
+    choose_prior_degree,
+    cv_score,
+    fit_structure,
+    select_structure,
+)
+
+__all__ = [
+    "SelectionSettings",
+    "Trial",
+    "choose_prior_degree",
+    "cv_score",
+    "fit_structure",
+    "select_structure",
+]

@@ -1,0 +1,490 @@
+"""Fitting one structure, scoring it by k-fold cross-validation over maneuvers, and the
+automatic model structure selection of the paper's Section IV.D.
+
+Selection is a greedy search from a starting structure. Each round tries every move
+
+* degree up / down (continuity kept below the degree),
+* refine / coarsen the triangulation along one variable (one more / fewer grid cell),
+* add a candidate variable / remove a variable (at ``max_variables``: replace a
+  variable by a candidate),
+
+scores each candidate by the RMS of k-fold cross-validation in which whole maneuvers are
+held out (the normal equations of each fold are accumulated once; a fold's training
+system is the sum of the others), and takes the best move when it lowers the score by more
+than ``min_improvement`` (relative). Every tried structure is recorded with its score.
+The held-out validation maneuvers are never used for selection.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from simplexspline.aero.modelling.structure_space import _accumulate, _matrix, _predict, _space
+from simplexspline.aero.modelling.model import AeroModel
+from simplexspline.aero.selection.moves import neighbours
+from simplexspline.aero.modelling.prior import (
+    PRIOR_DEGREES,
+    PRIOR_WEIGHT,
+    coarse_structure,
+    virtual_samples,
+)
+from simplexspline.aero.modelling.structure import Structure
+from simplexspline.errors import InputError, SimplexSplineError
+from simplexspline.spline.varying import VaryingCoefficientSpace
+
+__all__ = ["SelectionSettings", "Trial", "choose_prior_degree", "cv_score", "fit_structure",
+           "select_structure"]
+
+
+@dataclass(frozen=True)
+class SelectionSettings:
+    """Limits and options of the structure search.
+
+    Parameters
+    ----------
+    candidates : tuple of str
+        Variables that may be added (only those present in the data are used).
+    max_rounds : int
+        Greedy rounds (each takes the best of all moves).
+    folds : int
+        k of the k-fold cross-validation by maneuver.
+    min_improvement : float
+        Relative decrease of the CV RMS a move must bring to be taken.
+    max_degree, max_resolution, max_variables : int
+        Bounds of the search.
+    max_coefficients : int
+        Largest number of B-coefficients (J * d_hat) tried.
+    samples_per_coefficient : float
+        A structure needs at least this many identification samples per B-coefficient.
+    min_points : int
+        Simplices holding fewer samples are dropped from the triangulation.
+    moves : tuple of str
+        Kinds of moves tried: 'degree', 'resolution' (grid cells; for variables on
+        breakpoints, every other breakpoint dropped or midpoints inserted; ``cellwise``
+        on or off), 'variables'.
+    ridge : float
+        Relative ridge weight on the B-coefficients (times the mean diagonal of X'X): a
+        tiny value that only decides directions the data and continuity leave
+        undetermined in thinly covered simplices (0: minimum-norm solution instead).
+    max_samples : int
+        The search uses at most this many identification samples (every k-th sample, so
+        all maneuvers stay); the final fit uses all of them.
+    smoothing : 'auto', None, 'gcv' or float
+        Smoothness-energy regularisation of every fit (weight by GCV, or a fixed relative
+        weight; see docs/regularization.md): the thin-plate energy, or for C^0 structures
+        the membrane energy (squared gradients; the thin-plate energy does not see kinks
+        across facets). None (default): only the tiny ridge. 'auto': GCV for
+        varying-coefficient structures, none for plain ones.
+    prior : 'auto', 'coarse' or None
+        Shrink thinly covered simplices towards a coarse model of the same variables
+        (:mod:`simplexspline.aero.modelling.prior`): 'auto' (default) for varying-coefficient
+        structures (many coefficients per simplex), 'coarse' for every structure, None
+        never.
+    prior_weight : float
+        Weight of each virtual sample of the coarse model, relative to a real sample.
+    """
+
+    candidates: tuple = ("alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr")
+    max_rounds: int = 6
+    folds: int = 3
+    min_improvement: float = 0.01
+    max_degree: int = 5
+    max_resolution: int = 6
+    max_variables: int = 5
+    max_coefficients: int = 12000
+    samples_per_coefficient: float = 20.0
+    min_points: int = 10
+    max_samples: int = 150_000
+    moves: tuple = ("degree", "resolution", "variables")
+    ridge: float = 1e-8
+    smoothing: object = None
+    prior: object = "auto"
+    prior_weight: float = PRIOR_WEIGHT
+
+    def to_dict(self) -> dict:
+        return {k: (list(v) if isinstance(v, tuple) else v)
+                for k, v in self.__dict__.items()}
+
+
+@dataclass
+class Trial:
+    """One scored structure of the search."""
+
+    structure: Structure
+    score: float
+    round: int
+    move: str
+    ncoefficients: int = 0
+    nsimplex: int = 0
+    seconds: float = 0.0
+    accepted: bool = False
+    error: str = ""
+
+    def to_dict(self) -> dict:
+        return {"structure": self.structure.to_dict(), "label": self.structure.label(),
+                "cv_rms": self.score, "round": self.round, "move": self.move,
+                "ncoefficients": self.ncoefficients, "nsimplex": self.nsimplex,
+                "seconds": round(self.seconds, 3), "accepted": self.accepted,
+                "error": self.error}
+
+
+class single_threaded_blas:
+    """Limit BLAS/LAPACK to one thread: the many small factorisations of the selection
+    are 10-20x slower with multi-threaded OpenBLAS on a busy machine (measured)."""
+
+    def __enter__(self):
+        try:
+            from threadpoolctl import threadpool_limits
+        except ImportError:  # pragma: no cover - threadpoolctl is in the aero extra
+            self._limits = None
+        else:
+            self._limits = threadpool_limits(limits=1, user_api="blas")
+        return self
+
+    def __exit__(self, *exc):
+        if self._limits is not None:
+            self._limits.restore_original_limits()
+        return False
+
+
+def _use_prior(structure: Structure, prior) -> bool:
+    if prior is None:
+        return False
+    if prior == "auto":
+        return structure.varying
+    if prior == "coarse":
+        return True
+    raise InputError(f"prior must be 'auto', 'coarse' or None, got {prior!r}")
+
+
+def _prior_equations(structure, space, scaling, mscale, coarse, weight: float):
+    """Normal equations of the coarse model's virtual samples (see
+    :mod:`simplexspline.aero.modelling.prior`), each with ``weight``."""
+    z, m, yv = virtual_samples(structure, space.triangulation,
+                               scaling.subset(structure.variables), mscale[0], coarse)
+    return _accumulate(space, z, m, yv, np.full(len(yv), weight))
+
+
+def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
+                  weights: np.ndarray | None = None, min_points: int = 10,
+                  ridge: float = 1e-8, smoothing=None, prior=None,
+                  prior_weight: float = PRIOR_WEIGHT, prior_degree: int = 3,
+                  provenance: dict | None = None) -> AeroModel:
+    """Fit one coefficient model of the given structure on all the given samples.
+
+    Parameters
+    ----------
+    structure : Structure
+    columns : mapping of str to ndarray, shape (N,)
+        Identification data by column name (physical units).
+    y : ndarray, shape (N,)
+        The coefficient.
+    weights : ndarray, shape (N,), optional
+    min_points : int
+        Simplices with fewer samples are dropped (points there use the nearest simplex);
+        with a prior the whole grid is kept (the prior determines empty simplices).
+    ridge : float
+        Relative ridge weight (see :class:`SelectionSettings`); 0 takes the minimum-norm
+        solution in undetermined directions.
+    smoothing : 'auto', 'gcv' or float, optional
+        Smoothness-energy regularisation (:meth:`SplineSpace.fit`; membrane energy for
+        C^0 structures, thin-plate energy otherwise); None: none; 'auto': GCV for
+        varying-coefficient structures only.
+    prior : {'auto', 'coarse'} or None
+        Shrink towards a coarse model (:mod:`simplexspline.aero.modelling.prior`): 'coarse' always,
+        'auto' for varying-coefficient structures; None: never.
+    prior_weight : float
+        Weight of a virtual sample relative to the mean weight of the real ones.
+    prior_degree : int
+        Degree of the coarse model.
+
+    Returns
+    -------
+    AeroModel
+        ``provenance['counts']`` lists the samples per simplex.
+    """
+    x = _matrix(columns, structure.inputs)
+    y = np.asarray(y, dtype=float)
+    use_prior = _use_prior(structure, prior)
+    # with a prior, keep the whole grid: the prior determines simplices without data
+    scaling, u, m, mscale, space = _space(structure, x, 0 if use_prior else min_points)
+    keep = space.triangulation.locate(u) >= 0
+    w = None if weights is None else np.asarray(weights, dtype=float)
+    ne = _accumulate(space, u[keep], None if m is None else m[keep], y[keep],
+                     None if w is None else w[keep])
+    prov = dict(provenance or {})
+    counts = ne.counts.copy()          # real samples (before any virtual ones are added)
+    if use_prior:
+        cs = coarse_structure(structure, prior_degree)
+        coarse = fit_structure(cs, columns, y, weights=w, min_points=min_points,
+                               ridge=ridge)
+        wbar = 1.0 if w is None else float(np.mean(w[keep]))
+        ne.merge(_prior_equations(structure, space, scaling, mscale, coarse,
+                                  prior_weight * wbar))
+        prov["prior"] = {"structure": cs.label(), "weight": prior_weight}
+    spline = _solve(space, ne, ridge, smoothing)
+    prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
+                counts=counts.tolist(), nbasis=structure.nbasis,
+                nsimplex=space.triangulation.nsimplex,
+                ncoefficients=int(space.dim_coefficients))
+    reg = getattr(spline.info, "regularization", None)
+    if reg is not None:
+        prov["smoothing"] = {"penalty": reg.penalty, "relative_weight": reg.smoothing,
+                             "edf": reg.edf}
+    return AeroModel(structure, scaling, spline, prov, *mscale)
+
+
+def _fold_equations(space, u, m, y, folds, k):
+    """Normal equations of all located samples and of each fold's."""
+    sid = space.triangulation.locate(u)
+    parts = []
+    for f in range(k):
+        sel = (folds == f) & (sid >= 0)
+        parts.append(_accumulate(space, u[sel], None if m is None else m[sel], y[sel]))
+    total = parts[0].copy()
+    for p in parts[1:]:
+        total.merge(p)
+    return total, parts
+
+
+def _penalty(space) -> str:
+    """The smoothing penalty of a space: the thin-plate energy, or for C^0 spaces (whose
+    kinks across facets the energy does not see) the membrane energy."""
+    return "membrane" if _continuity(space) == 0 \
+        else "energy"
+
+
+def _continuity(space) -> int:
+    return space.space.continuity if isinstance(space, VaryingCoefficientSpace) \
+        else space.continuity
+
+
+def _solve(space, ne, ridge: float, smoothing=None):
+    if isinstance(smoothing, str) and smoothing == "auto":
+        smoothing = "gcv" if isinstance(space, VaryingCoefficientSpace) else None
+    kw = {} if smoothing is None else {"smoothing": smoothing, "penalty": _penalty(space)}
+    if ridge > 0:
+        return space.solve(ne, on_insufficient="ridge", ridge=ridge, **kw)
+    return space.solve(ne, on_insufficient="minnorm", **kw)
+
+
+def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray, *,
+             min_points: int = 10, ridge: float = 1e-8, smoothing=None, prior=None,
+             prior_weight: float = PRIOR_WEIGHT, prior_degree: int = 3,
+             scored: np.ndarray | None = None) -> tuple[float, int, int]:
+    """k-fold cross-validation RMS (folds = whole maneuvers).
+
+    ``scored`` (bool per sample, optional) limits the RMS to some held-out samples (e.g.
+    :func:`~simplexspline.aero.selection.validation.covered_in_fold`); all are fitted on. A mask
+    with no sample set scores all of them (no fold can then be judged on covered data).
+
+    Returns
+    -------
+    rms : float
+        RMS of the held-out residuals over all folds.
+    ncoefficients, nsimplex : int
+    """
+    x = _matrix(columns, structure.inputs)
+    y = np.asarray(y, dtype=float)
+    use_prior = _use_prior(structure, prior)
+    scaling, u, m, mscale, space = _space(structure, x, 0 if use_prior else min_points)
+    tri = space.triangulation
+    k = int(folds.max()) + 1
+    total, parts = _fold_equations(space, u, m, y, folds, k)
+    if use_prior:
+        cs = coarse_structure(structure, prior_degree)
+        c_scaling, cu, cm, c_mscale, c_space = _space(cs, x, min_points)
+        c_total, c_parts = _fold_equations(c_space, cu, cm, y, folds, k)
+    sse = 0.0
+    scored = np.ones(len(y), dtype=bool) if scored is None else np.asarray(scored, bool)
+    if not scored.any():
+        scored = np.ones(len(y), dtype=bool)
+    for f in range(k):
+        held = (folds == f) & scored
+        if not held.any():
+            continue  # nothing of this fold is scored: skip its solve
+        train = total - parts[f]
+        if use_prior:
+            c_spline = _solve(c_space, c_total - c_parts[f], ridge)
+            coarse = AeroModel(cs, c_scaling, c_spline, {}, *c_mscale)
+            train.merge(_prior_equations(structure, space, scaling, mscale, coarse,
+                                         prior_weight))
+        spline = _solve(space, train, ridge, smoothing)
+        pred = _predict(spline, u[held], None if m is None else m[held])
+        sse += float(np.sum((y[held] - pred) ** 2))
+    return (float(np.sqrt(sse / np.count_nonzero(scored))), int(space.dim_coefficients),
+            int(tri.nsimplex))
+
+
+def _cv_setup(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
+              settings: SelectionSettings, seed: int, conditions: np.ndarray | None):
+    """Subsampled columns, coefficient, folds and scored-sample mask of a
+    cross-validation, or None with fewer than 2 maneuvers (fewer maneuvers than folds:
+    leave one maneuver out instead)."""
+    from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
+
+    step = max(1, int(np.ceil(len(y) / settings.max_samples)))
+    cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
+    ys, mans = np.asarray(y, dtype=float)[::step], np.asarray(maneuvers)[::step]
+    k = min(settings.folds, len(np.unique(mans)))
+    if k < 2:
+        return None
+    cond = None if conditions is None else np.asarray(conditions)[::step]
+    folds = fold_by_maneuver(mans, k, seed=seed, conditions=cond)
+    scored = None if cond is None else covered_in_fold(folds, cond)
+    return cols, ys, folds, scored
+
+
+def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
+                        maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
+                        seed: int = 0,
+                        conditions: np.ndarray | None = None) -> tuple[int, dict]:
+    """The degree of the prior's coarse model (:data:`~simplexspline.aero.modelling.prior.
+    PRIOR_DEGREES`) with the lowest k-fold cross-validation RMS (folds = maneuvers) of the
+    *fine* structure shrunk towards it: the coarse model matters where the fine one's data
+    are thin, which is what held-out maneuvers probe.
+
+    ``conditions`` (flight-condition id per sample, optional): see
+    :func:`select_structure`.
+
+    Returns
+    -------
+    degree : int
+        3 when the structure gets no prior (or there are too few maneuvers to choose).
+    scores : dict
+        CV RMS per degree tried.
+    """
+    settings = settings or SelectionSettings()
+    if not _use_prior(structure, settings.prior):
+        return 3, {}
+    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions)
+    if setup is None:
+        return 3, {}
+    cols, ys, folds, scored = setup
+    scores = {}
+    with single_threaded_blas():
+        for d in PRIOR_DEGREES:
+            try:
+                scores[d] = cv_score(structure, cols, ys, folds, min_points=settings.min_points,
+                                     ridge=settings.ridge, smoothing=settings.smoothing,
+                                     prior=settings.prior, prior_weight=settings.prior_weight,
+                                     prior_degree=d, scored=scored)[0]
+            except SimplexSplineError:
+                scores[d] = float("inf")
+    best = min(scores, key=scores.get)
+    return (best if np.isfinite(scores[best]) else 3), scores
+
+
+def _size(s: Structure, ranges: Mapping | None = None) -> int:
+    return s.size(ranges)
+
+
+def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
+                     maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
+                     seed: int = 0, progress: Callable[[str], None] | None = None,
+                     prior_degree: int = 3,
+                     conditions: np.ndarray | None = None) -> tuple[Structure, list]:
+    """Greedy automatic model structure selection.
+
+    Parameters
+    ----------
+    start : Structure
+        Where the search starts (e.g. the paper's structure).
+    columns : mapping of str to ndarray, shape (N,)
+        Identification data by column (physical units).
+    y : ndarray, shape (N,)
+        The coefficient.
+    maneuvers : ndarray, shape (N,)
+        Maneuver id per sample (the folds hold out whole maneuvers).
+    settings : SelectionSettings, optional
+    seed : int
+        Seed of the fold assignment.
+    progress : callable, optional
+        Called with a short text after each scored structure.
+    prior_degree : int
+        Degree of the coarse model of the prior (see :func:`choose_prior_degree`).
+    conditions : ndarray, shape (N,), optional
+        Flight-condition id per sample: the folds spread every condition's maneuvers and
+        the CV RMS counts only held-out samples whose condition keeps most of its data in
+        the training folds (:func:`~simplexspline.aero.selection.validation.covered_in_fold`), so
+        that the selection optimises what the validation measures.
+
+    Returns
+    -------
+    best : Structure
+    history : list of Trial
+        Every structure tried, in order, with its CV RMS (``inf`` when it failed, with the
+        reason in ``error``); the accepted ones have ``accepted=True``.
+    """
+    settings = settings or SelectionSettings()
+    y = np.asarray(y, dtype=float)
+    n = len(y)
+    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions)
+    if setup is None:
+        raise InputError("structure selection needs at least 2 identification maneuvers "
+                         "for cross-validation; give more maneuvers or use select=False "
+                         "(--no-select)")
+    cols, ys, folds, scored = setup
+    available = [v for v in cols if np.ptp(np.asarray(cols[v], dtype=float)) > 0]
+    ranges = {v: (float(np.min(cols[v])), float(np.max(cols[v]))) for v in available}
+    budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
+    seen: dict = {}
+    history: list = []
+
+    def score(s: Structure, rnd: int, move: str) -> float:
+        key = s
+        if key in seen:
+            return seen[key]
+        t0 = time.perf_counter()
+        trial = Trial(s, float("inf"), rnd, move)
+        try:
+            trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
+                s, cols, ys, folds, min_points=settings.min_points, ridge=settings.ridge,
+                smoothing=settings.smoothing, prior=settings.prior,
+                prior_weight=settings.prior_weight, prior_degree=prior_degree,
+                scored=scored)
+        except SimplexSplineError as exc:
+            trial.error = str(exc)[:300]
+        trial.seconds = time.perf_counter() - t0
+        seen[key] = trial.score
+        history.append(trial)
+        if progress is not None:
+            progress(f"{s.label()}: {trial.score:.4g}")
+        return trial.score
+
+    score.history = history
+    with single_threaded_blas():
+        return _search(start, settings, available, budget, score, ranges)
+
+
+def _search(start, settings, available, budget, score, ranges=None):
+    best = start
+    best_score = score(start, 0, "start")
+    history = score.history
+    if not np.isfinite(best_score):
+        raise InputError(f"the starting structure {start.label()} cannot be fitted: "
+                         f"{history[-1].error}")
+    history[-1].accepted = True
+    for rnd in range(1, settings.max_rounds + 1):
+        # moves may grow a structure up to the budget; moves that shrink it (fewer
+        # multipliers, coarser, lower degree) are always allowed, so a start above the
+        # budget (a preset on a short campaign) can still be simplified
+        limit = max(budget, _size(best, ranges))
+        moves = [(m, s) for m, s in neighbours(best, settings, available)
+                 if _size(s, ranges) <= limit]
+        if not moves:
+            break
+        results = [(score(s, rnd, m), m, s) for m, s in moves]
+        sc, _move, cand = min(results, key=lambda t: t[0])
+        if not sc < best_score * (1.0 - settings.min_improvement):
+            break
+        best, best_score = cand, sc
+        for t in reversed(history):
+            if t.structure == cand:
+                t.accepted = True
+                break
+    return best, history

@@ -1,0 +1,230 @@
+"""Validation: splits by maneuver, RMS / relative RMS (Eq. 54-55), R^2, residual analysis.
+
+The paper's Eq. 54-55 lost the square root in typesetting: here
+``RMS = sqrt(mean(eps^2))`` and ``relative RMS = RMS / (max C - min C)`` (a fraction).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simplexspline.errors import InputError
+
+__all__ = ["CONDITION_KEEP", "PAPER_TABLE2", "autocorrelation", "covered_in_fold", "fold_by_maneuver", "scores",
+           "split_by_maneuver"]
+
+#: Fraction of each flight condition's samples that stays for identification when
+#: validation maneuvers are held out (and in the training folds of a scored
+#: cross-validation fold): validation then measures the model where it was identified.
+CONDITION_KEEP = 0.5
+
+#: Validation relative RMS of the paper's Table 2 (Cessna Citation II, fractions).
+PAPER_TABLE2 = {"CX": 0.0693, "CZ": 0.0260, "Cl": 0.0170, "Cm": 0.0172, "Cn": 0.0472}
+
+
+def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: int = 0,
+                      groups: np.ndarray | None = None,
+                      conditions: np.ndarray | None = None,
+                      keep: float = CONDITION_KEEP) -> np.ndarray:
+    """Choose whole maneuvers for validation.
+
+    Parameters
+    ----------
+    maneuvers : ndarray, shape (N,)
+        Maneuver id per sample.
+    fraction : float
+        Fraction of the maneuvers held out (at least one; at least one left).
+    seed : int
+    groups : ndarray, shape (N,), optional
+        A label per sample (e.g. the maneuver type); maneuvers are drawn in proportion
+        within every group so that each kind of maneuver appears in both sets.
+    conditions : ndarray, shape (N,), optional
+        Flight-condition id per sample. A maneuver is held out only while its flight
+        condition keeps at least ``keep`` of its samples for identification, so that every
+        validation maneuver is flown where the model was identified (validation measures
+        the model, not an extrapolation to a condition nobody flew). Where that leaves a
+        group short, it gets fewer validation maneuvers.
+    keep : float
+        Fraction of each flight condition's samples that stays for identification.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        True for validation samples.
+    """
+    maneuvers = np.asarray(maneuvers)
+    if not 0.0 < fraction < 1.0:
+        raise InputError(f"the validation fraction must be in (0, 1), got {fraction!r}")
+    ids, first, counts = np.unique(maneuvers, return_index=True, return_counts=True)
+    if len(ids) < 2:
+        raise InputError(f"{len(ids)} maneuver(s) in the data: validation needs at least two "
+                         "(one to identify on, one to validate on)")
+    rng = np.random.default_rng(seed)
+    labels = np.zeros(len(ids), dtype=int) if groups is None else np.unique(
+        np.asarray(groups)[first], return_inverse=True)[1]
+    if conditions is None:
+        cond = np.arange(len(ids))
+        room = counts.astype(float)
+    else:
+        cond = np.unique(np.asarray(conditions)[first], return_inverse=True)[1]
+        room = (1.0 - keep) * np.bincount(cond, weights=counts)
+    chosen = []
+    for g in np.unique(labels):
+        members = np.flatnonzero(labels == g)
+        k = round(fraction * len(members))
+        taken = 0
+        for i in rng.permutation(members):
+            if taken == k:
+                break
+            if counts[i] <= room[cond[i]]:
+                room[cond[i]] -= counts[i]
+                chosen.append(ids[i])
+                taken += 1
+    chosen = set(chosen)
+    if not chosen:
+        chosen = {rng.choice(ids)}
+    if len(chosen) == len(ids):
+        chosen.discard(next(iter(chosen)))
+    return np.isin(maneuvers, list(chosen))
+
+
+def fold_by_maneuver(maneuvers: np.ndarray, k: int, *, seed: int = 0,
+                     conditions: np.ndarray | None = None) -> np.ndarray:
+    """Fold number (0..k-1) per sample, whole maneuvers per fold (shuffled, balanced by
+    sample count).
+
+    With ``conditions`` (flight-condition id per sample) each condition's maneuvers are
+    spread over the folds, largest first, so that holding out a fold leaves most flight
+    conditions flown in the training folds (as :func:`split_by_maneuver` does for the
+    validation set).
+    """
+    maneuvers = np.asarray(maneuvers)
+    ids, first, inverse, counts = np.unique(maneuvers, return_index=True,
+                                            return_inverse=True, return_counts=True)
+    if k < 2 or len(ids) < k:
+        raise InputError(f"{k}-fold cross-validation needs at least {k} maneuvers, the "
+                         f"identification set has {len(ids)}")
+    rng = np.random.default_rng(seed)
+    order = rng.permutation(len(ids))
+    order = order[np.argsort(-counts[order], kind="stable")]
+    load = np.zeros(k)
+    fold_of = np.empty(len(ids), dtype=int)
+    if conditions is None:
+        for i in order:
+            f = int(np.argmin(load))
+            fold_of[i] = f
+            load[f] += counts[i]
+        return fold_of[inverse]
+    cond = np.unique(np.asarray(conditions)[first], return_inverse=True)[1]
+    used = np.zeros((cond.max() + 1, k))  # samples of each condition per fold
+    for i in order:
+        # the fold holding least of this condition, ties to the least loaded fold
+        f = int(np.lexsort((load, used[cond[i]]))[0])
+        fold_of[i] = f
+        load[f] += counts[i]
+        used[cond[i], f] += counts[i]
+    return fold_of[inverse]
+
+
+def covered_in_fold(folds: np.ndarray, conditions: np.ndarray,
+                    keep: float = CONDITION_KEEP) -> np.ndarray:
+    """Samples whose flight condition keeps at least ``keep`` of its samples in the other
+    folds: the held-out samples a cross-validation scores, so that it measures the model
+    where it was identified, as the validation split does (see
+    :func:`split_by_maneuver`).
+
+    Parameters
+    ----------
+    folds : ndarray of int, shape (N,)
+    conditions : ndarray, shape (N,)
+        Flight-condition id per sample.
+    keep : float
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+    """
+    folds = np.asarray(folds)
+    cond = np.unique(np.asarray(conditions), return_inverse=True)[1]
+    table = np.zeros((cond.max() + 1, folds.max() + 1))
+    np.add.at(table, (cond, folds), 1.0)
+    total = table.sum(axis=1)
+    return total[cond] - table[cond, folds] >= keep * total[cond]
+
+
+def autocorrelation(residual: np.ndarray, maneuvers: np.ndarray | None = None,
+                    max_lag: int = 50) -> np.ndarray:
+    """Normalised residual autocorrelation at lags 0..max_lag (within maneuvers)."""
+    e = np.asarray(residual, dtype=float)
+    e = e - e.mean()
+    m = np.zeros(len(e), dtype=int) if maneuvers is None else np.asarray(maneuvers)
+    var = float(np.dot(e, e))
+    out = np.zeros(max_lag + 1)
+    if var == 0.0:
+        out[0] = 1.0
+        return out
+    same = np.ones(len(e), dtype=bool)
+    for lag in range(max_lag + 1):
+        if lag:
+            same = m[lag:] == m[:-lag]
+            out[lag] = float(np.dot(e[lag:][same], e[:-lag][same])) / var
+        else:
+            out[0] = 1.0
+    return out
+
+
+def scores(measured: np.ndarray, model: np.ndarray, *, truth: np.ndarray | None = None,
+           maneuvers: np.ndarray | None = None, max_lag: int = 50) -> dict:
+    """Validation scores of a model output against measurements (and the truth).
+
+    Parameters
+    ----------
+    measured, model : ndarray, shape (N,)
+        Measured coefficient and model prediction.
+    truth : ndarray, shape (N,), optional
+        True coefficient (simulated data).
+    maneuvers : ndarray, shape (N,), optional
+        For the residual autocorrelation (lags do not cross maneuvers).
+
+    Returns
+    -------
+    dict
+        ``n``, ``rms``, ``rrms`` (RMS / range of the measured coefficient, a fraction),
+        ``r2``, ``bias``, ``max_abs``, ``autocorrelation`` (list, lags 0..max_lag),
+        ``whiteness`` (fraction of lags 1..max_lag inside the 95 % band); with ``truth``
+        also ``rms_true``, ``rrms_true`` (model vs truth), ``noise_rms`` (measured vs truth)
+        and ``rms_true_over_noise``.
+    """
+    y = np.asarray(measured, dtype=float)
+    yhat = np.asarray(model, dtype=float)
+    if y.shape != yhat.shape or y.ndim != 1:
+        raise InputError(f"measured and model must be 1-D of equal length, got {y.shape} and "
+                         f"{yhat.shape}")
+    if len(y) == 0:
+        raise InputError("no validation samples: the validation set is empty")
+    if not (np.all(np.isfinite(y)) and np.all(np.isfinite(yhat))):
+        raise InputError("NaN or inf in the measured or modelled values")
+    e = y - yhat
+    rng = float(y.max() - y.min())
+    rms = float(np.sqrt(np.mean(e * e)))
+    ss_tot = float(np.sum((y - y.mean()) ** 2))
+    ac = autocorrelation(e, maneuvers, max_lag)
+    band = 1.96 / np.sqrt(len(e))
+    out = {
+        "n": len(y), "rms": rms, "rrms": rms / rng if rng > 0 else float("nan"),
+        "r2": 1.0 - float(np.sum(e * e)) / ss_tot if ss_tot > 0 else float("nan"),
+        "bias": float(e.mean()), "max_abs": float(np.abs(e).max()), "range": rng,
+        "autocorrelation": ac.tolist(),
+        "whiteness": float(np.mean(np.abs(ac[1:]) < band)) if max_lag else 1.0,
+    }
+    if truth is not None:
+        t = np.asarray(truth, dtype=float)
+        if t.shape != y.shape:
+            raise InputError("truth must have the shape of measured")
+        et = t - yhat
+        rms_t = float(np.sqrt(np.mean(et * et)))
+        noise = float(np.sqrt(np.mean((y - t) ** 2)))
+        out.update(rms_true=rms_t, rrms_true=rms_t / rng if rng > 0 else float("nan"),
+                   noise_rms=noise,
+                   rms_true_over_noise=rms_t / noise if noise > 0 else float("inf"))
+    return out

@@ -1,0 +1,521 @@
+"""The equality-constrained generalized least-squares estimator (paper Eq. 38-42).
+
+    minimise (y - X c)' W (y - X c)   subject to   H c = 0.
+
+Instead of the paper's pseudo-inverse of the dense KKT matrix (Eq. 42), the solver
+
+1. eliminates the C^0 conditions exactly by gathering coefficients that they equate
+   (``c = G g``, G a 0/1 matrix; see :mod:`simplexspline.spline.continuity`);
+2. solves the remaining conditions ``A g = 0`` (order >= 1; possibly redundant, so no rank
+   reduction is needed) by the method of multipliers (augmented Lagrangian): one sparse
+   Cholesky factorisation of ``P = G'QG + rho A'A`` (multifrontal, nested-dissection order
+   from the B-net points: :class:`~simplexspline.spline.fit.cholesky.SparseCholesky`; SuperLU
+   as the fallback) and a few cheap iterations
+
+       g_{k+1} = P^{-1} (G'q - A' nu_k),    nu_{k+1} = nu_k + rho A g_{k+1},
+
+   which converge to the exact constrained solution (the KKT system of Eq. 40) whether or
+   not A has full row rank.
+
+The solution is unique iff no non-zero coefficient vector is both invisible to the data
+(``Q c = 0``) and continuous (``H c = 0``). Such directions are found exactly from the
+per-simplex null spaces of the Gram blocks and handled by the ``on_insufficient`` policy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
+
+from simplexspline.errors import InputError, InsufficientDataError
+from simplexspline.spline import kernels
+from simplexspline.spline.bform import bnet_points
+
+# The sparse Cholesky factorisation has its own module; its names stay importable from here,
+# and ``_preconditioner`` looks ``SparseCholesky`` up in this module's namespace.
+from simplexspline.spline.fit.cholesky import (  # noqa: F401
+    ND_LEAF,
+    SERIAL_FRONT,
+    SparseCholesky,
+    _CholeskySymbolic,
+    _nested_dissection,
+)
+
+__all__ = ["POLICIES", "SolveInfo", "solve_constrained"]
+
+#: What to do when data and continuity leave coefficients undetermined.
+POLICIES = ("raise", "minnorm", "ridge")
+
+#: An eigenvalue of a simplex's Gram block below NULL_TOL * d_hat * machine epsilon times
+#: the block's largest (or, for empty blocks, the mean diagonal) counts as a direction
+#: without data: round-off level, so that badly conditioned but determined blocks (e.g.
+#: weights spanning many decades) are not mistaken for undetermined ones.
+NULL_TOL = 100.0
+
+#: Default relative ridge weight for ``on_insufficient='ridge'``.
+DEFAULT_RIDGE = 1e-6
+
+
+@dataclass
+class SolveInfo:
+    """Diagnostics of a constrained solve.
+
+    Attributes
+    ----------
+    counts : ndarray of int, shape (J,)
+        Data points per simplex.
+    deficient_simplices : ndarray of int
+        Simplices whose own data do not determine their d_hat coefficients (fewer points
+        than coefficients, or points in a lower-dimensional set); continuity may still
+        determine them.
+    undetermined_simplices : ndarray of int
+        Simplices with coefficients determined neither by data nor by continuity.
+    n_undetermined : int
+        Dimension of the undetermined subspace.
+    policy : str
+        The ``on_insufficient`` policy applied.
+    ridge : float
+        The absolute ridge weight used (0 when none).
+    rss : float
+        Weighted residual sum of squares ``(y - Xc)' W (y - Xc)``.
+    """
+
+    counts: np.ndarray
+    deficient_simplices: np.ndarray
+    undetermined_simplices: np.ndarray
+    n_undetermined: int
+    policy: str
+    ridge: float
+    rss: float = field(default=float("nan"))
+
+
+def _full_rank_blocks(Q: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Cheap screen: blocks certainly of full rank (boolean, shape (J,)).
+
+    A batched Cholesky factorisation with no small pivot: the smallest eigenvalue of a
+    symmetric positive definite matrix is at most its smallest Cholesky pivot, and a block
+    whose pivots are all well away from zero is treated as full rank. Blocks with fewer
+    points than coefficients, failed factorisations and small pivots go to the exact
+    eigen-analysis.
+    """
+    dhat = Q.shape[1]
+    ok = counts >= dhat
+    idx = np.nonzero(ok)[0]
+    if len(idx) == 0:
+        return ok
+    diag_max = np.einsum("jkk->jk", Q[idx]).max(axis=1)
+    try:
+        L = np.linalg.cholesky(Q[idx])
+    except np.linalg.LinAlgError:
+        good = np.zeros(len(idx), dtype=bool)
+        for i, j in enumerate(idx):
+            try:
+                Lj = np.linalg.cholesky(Q[j])
+            except np.linalg.LinAlgError:
+                continue
+            good[i] = np.diag(Lj).min() ** 2 > 1e-6 * diag_max[i]
+    else:
+        piv = np.einsum("jkk->jk", L).min(axis=1) ** 2
+        good = piv > 1e-6 * diag_max
+    ok[idx] = good
+    return ok
+
+
+def _null_directions(Q: np.ndarray, counts: np.ndarray):
+    """Columns (full coordinates, sparse) spanning null(Q), from the per-block null spaces.
+
+    Returns the basis N (J*d_hat, k) and the simplices whose blocks are rank deficient.
+    """
+    nsimp, dhat, _ = Q.shape
+    suspect = np.nonzero(~_full_rank_blocks(Q, counts))[0]
+    if len(suspect) == 0:
+        return sp.csc_matrix((nsimp * dhat, 0)), suspect
+    lam, vec = np.linalg.eigh(Q[suspect])
+    top = lam[:, -1]
+    ref = np.where(top > 0, top, max(float(np.einsum("jkk->", Q)) / max(nsimp * dhat, 1),
+                                     1e-300))
+    null = lam <= NULL_TOL * dhat * np.finfo(float).eps * ref[:, None]
+    bs, ks = np.nonzero(null)
+    js = suspect[bs]
+    rows = (js[:, None] * dhat + np.arange(dhat)[None, :]).ravel()
+    cols = np.repeat(np.arange(len(js)), dhat)
+    vals = vec[bs, :, ks].ravel()
+    N = sp.csc_matrix((vals, (rows, cols)), shape=(nsimp * dhat, len(js)))
+    return N, np.unique(js)
+
+
+def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
+    """Basis (full coordinates, sparse) of null(Q) intersected with null(H).
+
+    The null directions couple only through the conditions they share, so the problem
+    splits into connected components, each solved by a small dense SVD.
+    """
+    k = N.shape[1]
+    if k == 0:
+        return sp.csc_matrix((N.shape[0], 0))
+    HN = (H @ N).tocsc()
+    HN.data[np.abs(HN.data) < 1e-15] = 0.0
+    HN.eliminate_zeros()
+    pattern = (abs(HN).T @ abs(HN)).tocsr()
+    ncomp, label = connected_components(pattern, directed=False)
+    blocks = []
+    for comp in range(ncomp):
+        cols = np.nonzero(label == comp)[0]
+        sub = HN[:, cols]
+        rows = np.unique(sub.indices)
+        if len(rows) == 0:
+            blocks.append((cols, np.eye(len(cols))))
+            continue
+        dense = sub[rows].toarray()
+        if dense.shape[0] > dense.shape[1]:
+            # only V is needed: reduce the (tall) block to its triangular factor first;
+            # a full SVD of a 4,350 x 498 block spent 10 s forming U
+            dense = sla.qr(dense, mode="r", check_finite=False)[0][:dense.shape[1]]
+        _, sv, vt = np.linalg.svd(dense, full_matrices=True)
+        rank = int((sv > 1e-9 * sv[0]).sum())
+        if rank < len(cols):
+            blocks.append((cols, vt[rank:].T))
+    if not blocks:
+        return sp.csc_matrix((N.shape[0], 0))
+    rows, cols, vals, off = [], [], [], 0
+    for c, theta in blocks:
+        r, q = np.nonzero(np.abs(theta) > 0)
+        rows.append(c[r])
+        cols.append(off + q)
+        vals.append(theta[r, q])
+        off += theta.shape[1]
+    T = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(k, off))
+    Z = (N @ T).tocsc()
+    Z.data[np.abs(Z.data) < 1e-14] = 0.0
+    Z.eliminate_zeros()
+    return Z
+
+
+def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
+                      penalty=None):
+    """Solve the constrained least-squares problem from accumulated normal equations.
+
+    Parameters
+    ----------
+    ne : NormalEquations
+        Accumulated per-simplex blocks.
+    system : SmoothnessSystem
+        Reduced continuity conditions of the spline space.
+    on_insufficient : {'raise', 'minnorm', 'ridge'}
+        When data and continuity leave coefficients undetermined: raise
+        :class:`InsufficientDataError` (default); take the minimum-norm solution (exact:
+        the undetermined directions are constrained to zero); or add a ridge penalty
+        ``ridge * mean(diag X'WX) * ||c||^2`` to the whole problem.
+    ridge : float, optional
+        Relative ridge weight; with ``on_insufficient='ridge'`` defaults to 1e-6. Given
+        with another policy, the ridge is applied regardless (regularised fit).
+    penalty : ndarray, shape (J, d_hat, d_hat), optional
+        Absolute per-simplex penalty blocks ``lam * P_t`` (symmetric positive
+        semi-definite): ``c' blockdiag(penalty) c`` is added to the objective (see
+        :mod:`simplexspline.spline.fit.penalty`). Directions it determines are not undetermined.
+
+    Returns
+    -------
+    coefficients : ndarray, shape (J, d_hat)
+    info : SolveInfo
+    """
+    if on_insufficient not in POLICIES:
+        raise InputError(f"on_insufficient must be one of {POLICIES}, got {on_insufficient!r}")
+    if ridge is not None and (not np.isfinite(ridge) or ridge < 0):
+        raise InputError(f"ridge must be a finite number >= 0, got {ridge!r}")
+    Q, q = ne.XtWX, ne.XtWy
+    nsimp, dhat, _ = Q.shape
+    if ne.npoints == 0 or not np.any(ne.wsum > 0):
+        raise InsufficientDataError(
+            "no data (or only zero weights) to fit: add data points", np.arange(nsimp),
+            ne.counts)
+    if penalty is not None:
+        penalty = np.asarray(penalty, dtype=float)
+        if penalty.shape != Q.shape or not np.all(np.isfinite(penalty)):
+            raise InputError(f"penalty must be finite blocks of shape {Q.shape}, got "
+                             f"{penalty.shape}")
+    Qp = Q if penalty is None else Q + penalty
+    N, deficient = _null_directions(Q, ne.counts)
+    if penalty is not None:
+        N, _ = _null_directions(Qp, ne.counts)
+    Zu = _undetermined(N, system.H_full)
+    under = np.unique(Zu.indices // dhat)
+    if ridge is None and on_insufficient == "ridge":
+        ridge = DEFAULT_RIDGE
+    if Zu.shape[1] and on_insufficient == "raise" and not ridge:
+        raise InsufficientDataError(
+            f"the data do not determine the spline on {len(under)} simplices "
+            f"{_listing(under, ne.counts)}: {Zu.shape[1]} coefficient directions have no "
+            "data and no continuity link to data. Add data there, coarsen the "
+            "triangulation, lower the degree, or fit with on_insufficient='minnorm' "
+            "(minimum-norm coefficients) or 'ridge' (small regularisation)",
+            under,
+            ne.counts[under],
+        )
+    diag_mean = float(np.einsum("jkk->", Q) / max(int((ne.counts > 0).sum()) * dhat, 1))
+    lam = float(ridge or 0.0) * diag_mean
+    gather, M = system.gather, system.nglobal
+    if M == nsimp * dhat and system.A_all.shape[0] == 0 and (Zu.shape[1] == 0 or lam):
+        # No continuity (r = -1): independent dense blocks, solved directly.
+        coef = _solve_blocks(Qp + lam * np.eye(dhat), q)
+        return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
+    # G'QG and G'q, assembled sparse from the blocks.
+    Qg = _assemble_gram(Qp, gather, M, getattr(system, "solver_cache", None))
+    qg = np.bincount(gather, weights=q.ravel(), minlength=M)
+    if lam > 0:
+        mult = np.bincount(gather, minlength=M).astype(float)
+        Qg = Qg + sp.diags(lam * mult)
+    A = system.A_all
+    if Zu.shape[1] and on_insufficient == "minnorm" and not lam:
+        # Minimum norm: the undetermined directions (which lie in range(G)) are set to zero.
+        G = sp.csr_matrix((np.ones(len(gather)), (np.arange(len(gather)), gather)),
+                          shape=(len(gather), M))
+        ZG = (Zu.T.tocsr() @ G).tocsr()
+        A = sp.vstack([A, ZG]).tocsr()
+    cache = getattr(system, "solver_cache", None)
+    coords = cache.get("points") if cache is not None else None
+    if coords is None:
+        coords = _global_points(ne.triangulation, ne.degree, gather, M)
+        if cache is not None:
+            cache["points"] = coords
+    g = _al_solve(Qg.tocsc(), qg, A, diag_mean, coords,
+                  cache.setdefault("cholesky", {}) if cache is not None else None, ridge=lam)
+    coef = g[gather].reshape(nsimp, dhat)
+    return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
+
+
+def _assemble_gram(Q: np.ndarray, gather: np.ndarray, M: int,
+                   cache: dict | None) -> sp.csr_matrix:
+    """``G'QG`` (M x M, CSR) from the per-simplex blocks. The sparsity pattern and the slot
+    of every block entry in it depend on the space only and are cached there, so each fit
+    costs one weighted bincount."""
+    nsimp, dhat, _ = Q.shape
+    key = ("gram_pattern", nsimp, dhat, M)
+    plan = cache.get(key) if cache is not None else None
+    if plan is None:
+        gi = gather.reshape(nsimp, dhat)
+        rows = np.broadcast_to(gi[:, :, None], Q.shape).ravel()
+        cols = np.broadcast_to(gi[:, None, :], Q.shape).ravel()
+        lin = rows * M + cols
+        uniq, slot = np.unique(lin, return_inverse=True)
+        indptr = np.zeros(M + 1, dtype=np.int64)
+        np.cumsum(np.bincount(uniq // M, minlength=M), out=indptr[1:])
+        plan = (slot.ravel(), (uniq % M).astype(np.int64), indptr, len(uniq))
+        if cache is not None:
+            cache[key] = plan
+    slot, indices, indptr, nnz = plan
+    data = np.bincount(slot, weights=Q.ravel(), minlength=nnz)
+    return sp.csr_matrix((data, indices.copy(), indptr.copy()), shape=(M, M))
+
+
+def _solve_blocks(Q: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Solve J independent d_hat x d_hat systems (with two refinement steps)."""
+    try:
+        coef = np.linalg.solve(Q, q[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        raise InsufficientDataError(
+            "a simplex's normal equations are singular: use on_insufficient='minnorm' or "
+            "'ridge'") from None
+    for _ in range(2):
+        res = q - np.einsum("jkl,jl->jk", Q, coef)
+        coef = coef + np.linalg.solve(Q, res[..., None])[..., 0]
+    return coef
+
+
+def _info(ne, coef, deficient, under, Zu, policy, lam) -> SolveInfo:
+    Q, q = ne.XtWX, ne.XtWy
+    rss = float(ne.ytWy - 2.0 * np.einsum("jk,jk->", coef, q)
+                + np.einsum("jk,jkl,jl->", coef, Q, coef))
+    return SolveInfo(
+        counts=ne.counts.copy(),
+        deficient_simplices=deficient,
+        undetermined_simplices=under,
+        n_undetermined=int(Zu.shape[1]),
+        policy=policy,
+        ridge=lam,
+        rss=max(rss, 0.0),
+    )
+
+
+#: Regularisation of the factorised KKT matrix, relative to the mean diagonal of G'QG:
+#: SIGMA on the coefficient block, DELTA on the multiplier block. The factorised matrix is
+#: then quasi-definite (factorisable without pivoting in any symmetric order); iterative
+#: refinement against the exact KKT system removes the regularisation's effect.
+KKT_SIGMA = 1e-10
+KKT_DELTA = 1e-8
+REFINE_MAXITER = 40
+#: Accepted relative forward-error estimate of a constrained solve (without a ridge).
+REFINE_TOL = 1e-8
+
+
+def _global_points(tri, degree: int, gather: np.ndarray, M: int) -> np.ndarray:
+    """Position of every C^0-reduced coefficient (its B-net point), shape (M, n): what the
+    nested-dissection ordering of the sparse Cholesky factorisation cuts along."""
+    pts = bnet_points(tri.vertices[tri.simplices], degree).reshape(-1, tri.ndim)
+    out = np.zeros((M, tri.ndim))
+    out[gather] = pts
+    return out
+
+
+def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
+              coords: np.ndarray | None = None, cache: dict | None = None,
+              ridge: float = 0.0) -> np.ndarray:
+    """Minimise g'Qg g/2 - qg'g subject to A g = 0 (A may be rank deficient).
+
+    Preconditioner: the regularised KKT matrix [Qg + sigma I, A'; A, -delta I], applied
+    through its condensed form P = Qg + sigma I + A'A/delta (an M x M sparse symmetric
+    positive definite matrix, factorised once), or, when there are few conditions, as a
+    whole. Iterative refinement (then GMRES if that stalls) against the exact KKT system
+    [Qg A'; A 0] removes the regularisation: this is the method of multipliers with
+    penalty 1/delta and converges to the exact constrained minimiser whenever it is unique,
+    whether or not A has full row rank.
+
+    ``ridge`` (absolute, already in ``Qg``): directions that only the ridge determines are
+    known to relative accuracy ``eps * scale / ridge`` at best, so the accepted forward
+    error of the refinement is relaxed accordingly (a 1e-8 relative ridge: about 1e-6).
+    """
+    tol = REFINE_TOL if ridge <= 0 else max(REFINE_TOL, 1e2 * np.finfo(float).eps * scale / ridge)
+    singular = InsufficientDataError(
+        "the constrained least-squares system is singular: the data do not determine the "
+        "spline; use on_insufficient='minnorm' or 'ridge'")
+    M = Qg.shape[0]
+    m = A.shape[0]
+    if m:
+        rn = np.sqrt(np.asarray(A.multiply(A).sum(axis=1)).ravel())
+        A = (sp.diags(scale / np.where(rn > 0, rn, 1.0)) @ A).tocsr()
+    At = A.T.tocsr()
+
+    def kkt(z):  # the exact KKT matrix [Qg A'; A 0] times z
+        z1, z2 = z[:M], z[M:]
+        return np.concatenate([Qg @ z1 + At @ z2, A @ z1])
+
+    K = spla.LinearOperator((M + m, M + m), matvec=kkt, dtype=float)
+    rhs = np.concatenate([qg, np.zeros(m)])
+    delta = KKT_DELTA * scale
+    for sigma in (KKT_SIGMA * scale, 0.0):
+        pre = None
+        if sigma > 0 and M <= DENSE_MAX:
+            pre = _dense_preconditioner(Qg, A, At, sigma, delta)
+        if pre is None:
+            pre = _preconditioner(Qg, A, sigma, delta, coords, cache)
+        if pre is None:
+            continue
+        z = _refine(pre, K, rhs, M, tol)
+        if z is not None:
+            return z[:M]
+    raise singular
+
+
+#: Systems with at most this many C^0-reduced coefficients are factorised as one dense
+#: matrix (LAPACK Cholesky): below about this size the sparse factorisation's bookkeeping
+#: costs more than the dense flops (the paper's 37-simplex S^1_3 model has M = 657).
+DENSE_MAX = 1500
+
+
+def _dense_preconditioner(Qg, A, At, sigma: float, delta: float):
+    """Like :func:`_preconditioner` with sigma > 0, with the condensed matrix dense."""
+    M, m = Qg.shape[0], A.shape[0]
+    rho = 1.0 / delta
+    P = Qg.toarray()
+    if m:
+        P += rho * (At @ A).toarray()
+    P[np.diag_indices(M)] += sigma
+    with kernels.one_blas_thread():
+        try:
+            fac = sla.cho_factor(P, lower=True, overwrite_a=True, check_finite=False)
+        except sla.LinAlgError:
+            return None
+
+    def solve(r):
+        r1, r2 = r[:M], r[M:]
+        with kernels.one_blas_thread():
+            dg = sla.cho_solve(fac, r1 + rho * (At @ r2) if m else r1, check_finite=False)
+        return np.concatenate([dg, rho * (A @ dg - r2)]) if m else dg
+
+    return solve
+
+
+def _preconditioner(Qg, A, sigma: float, delta: float, coords=None, cache=None):
+    """Solver for the regularised KKT matrix, or None when it cannot be factorised."""
+    M, m = Qg.shape[0], A.shape[0]
+    if sigma > 0:
+        # Condensed (multipliers eliminated, nu = (A g - r2) / delta): P is symmetric
+        # positive definite; sparse Cholesky, SuperLU if that fails.
+        rho = 1.0 / delta
+        At = A.T.tocsr()
+        P = (Qg + sigma * sp.eye(M) + rho * (At @ A)).tocsr() if m else (
+            Qg + sigma * sp.eye(M)).tocsr()
+        fac = None
+        if coords is not None:
+            try:
+                fac = SparseCholesky(P, coords, cache=cache).solve
+            except np.linalg.LinAlgError:
+                fac = None
+        if fac is None:
+            fac = _splu(P.tocsc(), 0.0)
+            if fac is None:
+                return None
+        if m == 0:
+            return fac
+
+        def solve(r):
+            r1, r2 = r[:M], r[M:]
+            dg = fac(r1 + rho * (At @ r2))
+            return np.concatenate([dg, rho * (A @ dg - r2)])
+
+        return solve
+    if m == 0:
+        return _splu((Qg + sigma * sp.eye(M)).tocsc(), 0.0)
+    # Fallback (G'QG singular along directions only the constraints fix): the whole
+    # regularised KKT matrix with threshold partial pivoting.
+    Kd = sp.bmat([[Qg, A.T], [A, -delta * sp.eye(m)]], format="csc")
+    return _splu(Kd, 0.1)
+
+
+def _splu(K: sp.csc_matrix, thresh: float):
+    opts = {"permc_spec": "MMD_AT_PLUS_A", "options": {"SymmetricMode": True}}
+    try:
+        return spla.splu(K, diag_pivot_thresh=thresh, **opts).solve
+    except RuntimeError:
+        return None
+
+
+def _refine(solve, K, rhs, M, tol: float = 1e-8):
+    """Solve K z = rhs with an approximate inverse ``solve``: iterative refinement, then
+    (if that converges slowly, e.g. with nearly dependent conditions) preconditioned GMRES.
+    Returns None when neither brings the relative size of the last correction (the
+    forward-error estimate) of the coefficient part to ``tol``."""
+    with np.errstate(all="ignore"):
+        z = solve(rhs)
+        last = np.inf
+        step = np.inf
+        for _ in range(REFINE_MAXITER):
+            dz = solve(rhs - K @ z)
+            z += dz
+            step = np.abs(dz[:M]).max() / max(np.abs(z[:M]).max(), 1e-300)
+            if step <= 1e-14 or step >= 0.8 * last or not np.isfinite(step):
+                break
+            last = step
+        if np.isfinite(step) and step > 1e-12:
+            pre = spla.LinearOperator(K.shape, matvec=solve, dtype=float)
+            z2, _ = spla.gmres(K, rhs, x0=z, M=pre, rtol=1e-14, atol=0.0, restart=60,
+                               maxiter=20)
+            if np.all(np.isfinite(z2)):
+                step = np.abs(solve(rhs - K @ z2)[:M]).max() / max(np.abs(z2[:M]).max(),
+                                                                   1e-300)
+                z = z2
+    if not np.all(np.isfinite(z)) or step > tol:
+        return None
+    return z
+
+
+def _listing(ids: np.ndarray, counts: np.ndarray, most: int = 12) -> str:
+    parts = [f"{int(j)} ({int(counts[j])} points)" for j in ids[:most]]
+    more = f", ... {len(ids) - most} more" if len(ids) > most else ""
+    return "[" + ", ".join(parts) + more + "]"

@@ -1,0 +1,52 @@
+"""What evaluation does at points outside a triangulation: the ``outside=`` vocabulary.
+
+One set of names for every evaluating API (splines, varying-coefficient splines,
+uncertainty bounds, the scikit-learn estimator, aerodynamic models, exported C):
+
+- ``'nan'``: NaN at outside points;
+- ``'raise'``: :class:`~simplexspline.errors.OutsideDomainError` naming the points;
+- ``'extrapolate'``: the polynomial piece of the nearest simplex;
+- ``'clamp'``: the value at the nearest point of the domain's bounding box (an estimator's
+  and an exported model's choice: inputs are clipped to the data's box).
+
+Each API accepts a subset of these, stated in its ``*_POLICIES`` constant below.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from simplexspline.errors import InputError
+
+__all__ = ["AERO_POLICIES", "EXPORT_POLICIES", "OUTSIDE_POLICIES", "SPLINE_POLICIES",
+           "check_policy"]
+
+#: Every outside policy of the project.
+OUTSIDE_POLICIES: tuple[str, ...] = ("nan", "raise", "extrapolate", "clamp")
+
+#: Policies of :meth:`SimplexSpline.predict` and its derivatives.
+SPLINE_POLICIES: tuple[str, ...] = ("nan", "raise", "extrapolate")
+
+#: Policies of aerodynamic models and the scikit-learn estimator.
+AERO_POLICIES: tuple[str, ...] = ("clamp", "nan", "extrapolate")
+
+#: Policies of exported C code and lookup tables.
+EXPORT_POLICIES: tuple[str, ...] = ("nan", "clamp", "extrapolate")
+
+
+def check_policy(policy: str, allowed: Sequence[str] = SPLINE_POLICIES, *,
+                 name: str = "outside") -> str:
+    """``policy`` if it is one of ``allowed``, else an :class:`InputError` listing them.
+
+    Parameters
+    ----------
+    policy : str
+        The policy asked for.
+    allowed : sequence of str
+        The policies of the calling API (a subset of :data:`OUTSIDE_POLICIES`).
+    name : str
+        The argument's name in the message.
+    """
+    if policy not in allowed:
+        raise InputError(f"{name} must be one of {tuple(allowed)}, got {policy!r}")
+    return policy
