@@ -31,6 +31,7 @@ import pandas as pd
 
 from simplexspline.aero import ReconstructionSettings, aerodynamic_coefficients, reconstruct
 from simplexspline.aero.data.flight_data import read_flight_data
+from simplexspline.sim import Campaign
 
 IMU = ("ax", "ay", "az", "p", "q", "r")
 AIR = ("alpha", "beta", "tas")
@@ -100,8 +101,6 @@ def main() -> None:
     if args.input:
         df, _ = read_flight_data(args.input, nan="ignore")
     else:
-        from simplexspline.sim import Campaign
-
         t0 = time.perf_counter()
         df = Campaign("f16", maneuvers=args.maneuvers, seed=args.seed).run(
             workers=args.workers, progress=False)

@@ -20,12 +20,13 @@ import sys
 import tempfile
 import time
 
+from simplexspline.aero.data.flight_data import write_flight_data
+from simplexspline.sim import Campaign, envelope_coverage, get_aircraft
+from simplexspline.sim.fdm import quiet_scratch, trim_fdm
+
 
 def bare_run_cost(aircraft: str = "f16", steps: int = 20000) -> float:
     """Seconds per JSBSim ``run()`` of a trimmed aircraft (no Python work per step)."""
-    from simplexspline.sim import get_aircraft
-    from simplexspline.sim.fdm import quiet_scratch, trim_fdm
-
     with quiet_scratch():
         fdm = trim_fdm(get_aircraft(aircraft), 5000.0, 200.0)
         run = fdm.run
@@ -51,9 +52,6 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--write", action="store_true", help="also time writing Parquet")
     args = parser.parse_args(argv)
-
-    from simplexspline.aero.data.flight_data import write_flight_data
-    from simplexspline.sim import Campaign, envelope_coverage
 
     workers = args.workers or len(os.sched_getaffinity(0))
     print(f"{args.aircraft}: {args.maneuvers} maneuvers, seed {args.seed}, {workers} workers, "

@@ -65,7 +65,7 @@ def __getattr__(name: str):
     # The scikit-learn estimator is imported on first use: importing scikit-learn (an
     # optional dependency) costs about a second.
     if name == "SimplexSplineRegressor":
-        from simplexspline.estimator.regressor import SimplexSplineRegressor
+        from simplexspline.estimator import SimplexSplineRegressor  # lazy: scikit-learn
 
         return SimplexSplineRegressor
     raise AttributeError(f"module 'simplexspline' has no attribute {name!r}")

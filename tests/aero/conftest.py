@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from simplexspline.sim import Campaign, SensorModel
+from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
 
 #: A short f16 campaign with 3211s, a doublet and two (short) sum-of-sines maneuvers.
-SMALL = {"altitudes_m": [3000.0, 7000.0], "airspeeds_mps": [160.0, 220.0],
-         "mix": {"3211": 3, "doublet": 1, "sum-of-sines": 2}, "sos_duration_s": (15.0, 20.0)}
+SMALL = {"grid": ConditionGrid(altitudes_m=[3000.0, 7000.0], airspeeds_mps=[160.0, 220.0]),
+         "protocol": FlightProtocol(mix={"3211": 3, "doublet": 1, "sum-of-sines": 2},
+                                    sos_duration_s=(15.0, 20.0))}
 
 
 def small_campaign(*, seed: int = 3, sensors: SensorModel | None = None,

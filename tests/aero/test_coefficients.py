@@ -7,13 +7,14 @@ import pandas as pd
 import pytest
 
 from simplexspline.aero import aerodynamic_coefficients, angular_accelerations, midpoint_derivative
-from simplexspline.aero.data.coefficients import COEFFICIENT_NAMES, THRUST_COLUMNS
+from simplexspline.aero.data.coefficients import THRUST_COLUMNS
+from simplexspline.aero.variables import COEFFICIENTS
 from simplexspline.errors import FlightDataError, InputError
 
 
 def relative_rms_table(data: pd.DataFrame) -> pd.DataFrame:
     rows = {}
-    for c in COEFFICIENT_NAMES:
+    for c in COEFFICIENTS:
         err = data[c] - data["true_" + c]
         rms = float(np.sqrt(np.mean(err ** 2)))
         span = float(data["true_" + c].max() - data["true_" + c].min())
@@ -24,7 +25,7 @@ def relative_rms_table(data: pd.DataFrame) -> pd.DataFrame:
 def test_ideal_sensors_reproduce_true_coefficients(ideal_campaign):
     coef, thrust = aerodynamic_coefficients(ideal_campaign, accelerations="measured")
     assert thrust
-    for c in COEFFICIENT_NAMES:
+    for c in COEFFICIENTS:
         np.testing.assert_allclose(coef[c], ideal_campaign["true_" + c], rtol=0, atol=1e-6)
     V = ideal_campaign["tas"]
     np.testing.assert_allclose(coef["qhat"],

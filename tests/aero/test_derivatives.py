@@ -8,14 +8,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
 from simplexspline.aero.derivatives.stability import (
     condition_grid,
     derivative_name,
     derivative_unit,
     derivatives,
     load_models,
-    plot_derivative_map,
-    plot_derivatives,
     reference_conditions,
 )
 from simplexspline.aero.modelling.model import AeroModel

@@ -16,14 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from simplexspline import InputError, SimplexSpline, Triangulation
-from simplexspline.aero.export.c_code import (
-    generate_aero_c,
-    load_exportable,
-    lookup_table,
-    parse_grid,
-)
-from simplexspline.aero.export.c_code import _parameter_names as parameter_names
+from simplexspline import InputError, SimplexSpline, SplineSpace, Triangulation
+from simplexspline.aero.export.c_code import generate_aero_c, load_exportable, parameter_names
+from simplexspline.aero.export.lookup_tables import lookup_table, parse_grid
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.modelling.structure import Scaling, Structure
 from simplexspline.cli import main
@@ -47,7 +42,7 @@ def make_model(structure: Structure, lower, upper, seed: int, cut: float = 0.3) 
     tri = Triangulation.fit(u, structure.resolution, min_points=10)
     y = -4 * x[:, 0] + 0.5 * x[:, 1] ** 2 + np.sin(3 * x[:, -1]) * x[:, 0]
     keep = tri.locate(u) >= 0  # points in dropped simplices do not take part
-    spline = SimplexSpline.fit(u[keep], y[keep], tri, structure.degree, structure.continuity)
+    spline = SplineSpace(tri, structure.degree, structure.continuity).fit(u[keep], y[keep])
     return AeroModel(structure, scaling, spline,
                      {"source": "synthetic", "counts": list(range(40)), "note": "a */ b --"})
 
@@ -231,8 +226,8 @@ def test_lookup_table_values_and_files(cz, tmp_path):
 
 def test_lookup_table_of_a_plain_spline():
     tri = Triangulation.grid([0.0, 0.0], [1.0, 1.0], (2, 2))
-    s = SimplexSpline.fit(np.random.default_rng(0).uniform(0, 1, (200, 2)),
-                          np.zeros(200) + 2.0, tri, 1, 0)
+    s = SplineSpace(tri, 1, 0).fit(np.random.default_rng(0).uniform(0, 1, (200, 2)),
+                                   np.zeros(200) + 2.0)
     t = lookup_table(s, [[0.0, 0.5, 1.5], [0.25]])
     assert t.variables == ("x0", "x1") and t.policy == "nan" and t.output == "y"
     np.testing.assert_allclose(t.values[:2, 0], 2.0)

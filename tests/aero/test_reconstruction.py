@@ -9,9 +9,11 @@ import pandas as pd
 import pytest
 
 from simplexspline.aero import Reconstruction, ReconstructionSettings, reconstruct
-from simplexspline.aero.reconstruction.iekf import rts_smooth, run_filter
-from simplexspline.aero.reconstruction.kinematics import NX, NZ, EarthModel, measure, normal_gravity, propagate
-from simplexspline.aero.reconstruction.reconstruct import innovation_statistics
+from simplexspline.aero.reconstruction.iekf import FilterNoise, rts_smooth, run_filter
+from simplexspline.aero.reconstruction.kinematics import (
+    MEASUREMENT_NAMES, NX, NZ, EarthModel, measure, normal_gravity, propagate,
+)
+from simplexspline.aero.reconstruction.reconstruct import initial_state, innovation_statistics
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.sim.sensors import DEFAULT_BIAS, DEFAULT_NOISE_STD
 
@@ -146,15 +148,12 @@ def test_smoother_beats_filter(noisy_campaign):
 
 def test_rts_without_covariance_matches_with_covariance(noisy_campaign):
     d = noisy_campaign[noisy_campaign["maneuver"] == 3].iloc[:300]
-    from simplexspline.aero.reconstruction.reconstruct import _initial_state
-    from simplexspline.aero.reconstruction.kinematics import MEASUREMENT_NAMES
-
     z = d[list(MEASUREMENT_NAMES)].to_numpy()
-    x0, P0 = _initial_state(z, ReconstructionSettings().prior)
     earth = EarthModel(math.radians(52.0))
-    out = run_filter(x0, P0, d[list(IMU)].to_numpy(), z, 0.01,
-                     earth.gravity(d["h"].to_numpy()), earth, np.full(6, 1e-3),
-                     np.full(NX, 1e-12), np.full(NZ, 0.01))
+    noise = FilterNoise(np.full(6, 1e-3), np.full(NX, 1e-12), np.full(NZ, 0.01))
+    out = run_filter(initial_state(z, ReconstructionSettings().prior),
+                     d[list(IMU)].to_numpy(), z, 0.01, earth.gravity(d["h"].to_numpy()),
+                     earth, noise)
     xs, var = rts_smooth(out, covariance=True)
     xs2, none = rts_smooth(out)
     assert none is None

@@ -10,7 +10,8 @@ import pytest
 
 from simplexspline import InputError
 from simplexspline.aero.config import parse_structure
-from simplexspline.aero.export.c_code import generate_aero_c, lookup_table
+from simplexspline.aero.export.c_code import generate_aero_c
+from simplexspline.aero.export.lookup_tables import lookup_table
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.moves import neighbours
 from simplexspline.aero.selection.search import SelectionSettings, cv_score, fit_structure

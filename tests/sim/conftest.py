@@ -4,21 +4,28 @@ from __future__ import annotations
 
 import pytest
 
-from simplexspline.sim import Campaign, SensorModel
+from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
 
 #: A campaign with every maneuver family and all three pulse axes, kept short.
 SMALL = {
-    "f16": {"altitudes_m": [3000.0, 7000.0], "airspeeds_mps": [160.0, 220.0]},
-    "global5000": {"altitudes_m": [3000.0, 8000.0], "airspeeds_mps": [170.0, 220.0]},
+    "f16": ConditionGrid(altitudes_m=[3000.0, 7000.0], airspeeds_mps=[160.0, 220.0]),
+    "global5000": ConditionGrid(altitudes_m=[3000.0, 8000.0], airspeeds_mps=[170.0, 220.0]),
 }
 MIX = {"3211": 3, "doublet": 1, "sum-of-sines": 2}
 
 
 def small_campaign(aircraft: str, *, seed: int = 7, sensors: SensorModel | None = None,
-                   maneuvers: int = 6, **kwargs) -> Campaign:
-    settings = {**SMALL[aircraft], "mix": MIX, "sos_duration_s": (15.0, 20.0), **kwargs}
-    return Campaign(aircraft, maneuvers=maneuvers, seed=seed,
-                    sensors=SensorModel.ideal() if sensors is None else sensors, **settings)
+                   maneuvers: int = 6, grid: ConditionGrid | None = None,
+                   maneuvers_per_condition: int | None = None, envelope=None,
+                   **protocol) -> Campaign:
+    """A short campaign; ``protocol`` overrides the :class:`FlightProtocol` settings."""
+    return Campaign(aircraft, maneuvers=maneuvers,
+                    maneuvers_per_condition=maneuvers_per_condition, seed=seed,
+                    grid=SMALL[aircraft] if grid is None else grid,
+                    protocol=FlightProtocol(**{"mix": MIX, "sos_duration_s": (15.0, 20.0),
+                                               **protocol}),
+                    sensors=SensorModel.ideal() if sensors is None else sensors,
+                    envelope=envelope)
 
 
 @pytest.fixture(scope="session")

@@ -8,6 +8,8 @@ from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim import (
     AircraftProfile,
     Campaign,
+    ConditionGrid,
+    FlightProtocol,
     SensorModel,
     available_aircraft,
     get_aircraft,
@@ -33,7 +35,7 @@ def test_register_a_modified_profile():
 
 def test_a_profile_naming_a_missing_property_fails_clearly():
     prof = get_aircraft("f16").replace(name="f16-broken", flap_property="fcs/no-such-flap")
-    campaign = Campaign(prof, altitudes_m=[3000.0], airspeeds_mps=[170.0], maneuvers=1,
-                        mix={"doublet": 1}, sensors=SensorModel.ideal())
+    campaign = Campaign(prof, grid=ConditionGrid([3000.0], [170.0]), maneuvers=1,
+                        protocol=FlightProtocol(mix={"doublet": 1}), sensors=SensorModel.ideal())
     with pytest.raises(SimulationError, match="property 'fcs/no-such-flap' does not exist"):
         campaign.run(workers=1, progress=False)

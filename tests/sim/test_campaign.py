@@ -18,7 +18,9 @@ from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim import (
     MANEUVER_TYPES,
     Campaign,
+    ConditionGrid,
     Envelope,
+    FlightProtocol,
     SensorModel,
     envelope_coverage,
     get_aircraft,
@@ -196,8 +198,7 @@ def test_tight_envelope_cuts_and_marks_maneuvers():
     prof = get_aircraft("f16")
     env = Envelope(**{**prof.envelope.to_dict(), "nz_min": 0.6, "nz_max": 1.4})
     df = small_campaign("f16", maneuvers=3, mix={"3211": 1}, envelope=env, min_kept_s=1.0,
-                        altitudes_m=[3000.0], airspeeds_mps=[220.0]).run(workers=1,
-                                                                          progress=False)
+                        grid=ConditionGrid([3000.0], [220.0])).run(workers=1, progress=False)
     logs = df.attrs["maneuvers"]
     assert [lg["status"] for lg in logs].count("cut") >= 1
     for lg in logs:
@@ -216,13 +217,12 @@ def test_short_remainders_are_dropped_not_kept():
     env = Envelope(**{**prof.envelope.to_dict(), "nz_min": 0.9, "nz_max": 1.1})
     with pytest.raises(SimulationError, match="no maneuver was kept"):
         small_campaign("f16", maneuvers=1, mix={"doublet": 1}, envelope=env, min_kept_s=60.0,
-                       altitudes_m=[3000.0], airspeeds_mps=[220.0]).run(workers=1,
-                                                                         progress=False)
+                       grid=ConditionGrid([3000.0], [220.0])).run(workers=1, progress=False)
 
 
 def test_untrimmable_grid_is_an_error_that_says_why():
-    campaign = Campaign("global5000", altitudes_m=[12000.0], airspeeds_mps=[120.0],
-                        maneuvers=1, sensors=SensorModel.ideal())
+    campaign = Campaign("global5000", grid=ConditionGrid([12000.0], [120.0]), maneuvers=1,
+                        sensors=SensorModel.ideal())
     conditions = campaign.conditions(workers=1)
     assert conditions[0]["trimmed"] is False and "trim" in conditions[0]["reason"]
     with pytest.raises(SimulationError, match="no condition .* could be trimmed"):
@@ -230,7 +230,7 @@ def test_untrimmable_grid_is_an_error_that_says_why():
 
 
 def test_conditions_above_the_mach_limit_are_skipped_without_trimming():
-    c = Campaign("f16", altitudes_m=[1000.0], airspeeds_mps=[330.0]).conditions(workers=1)
+    c = Campaign("f16", grid=ConditionGrid([1000.0], [330.0])).conditions(workers=1)
     assert c == [{"condition": 0, "h_m": 1000.0, "tas_mps": 330.0, "trimmed": False,
                   "reason": c[0]["reason"]}]
     assert "Mach" in c[0]["reason"]
@@ -271,8 +271,8 @@ def test_simulate_campaign_writes_the_file(tmp_path):
 
     out = tmp_path / "c.parquet"
     df = simulate_campaign("global5000", maneuvers=1, seed=4, output=out, workers=1,
-                           progress=False, altitudes_m=[3000.0], airspeeds_mps=[170.0],
-                           mix={"doublet": 1})
+                           progress=False, grid=ConditionGrid([3000.0], [170.0]),
+                           protocol=FlightProtocol(mix={"doublet": 1}))
     back, meta = read_flight_data(out, nan="raise")
     assert len(back) == len(df) and meta["aircraft"] == "global5000"
     assert meta["simulator"]["seed"] == 4
@@ -281,23 +281,30 @@ def test_simulate_campaign_writes_the_file(tmp_path):
 @pytest.mark.parametrize("kwargs, match", [
     ({"maneuvers": 0}, "maneuvers must be a positive integer"),
     ({"aircraft": "spitfire"}, "unknown aircraft 'spitfire'"),
-    ({"mix": {"loop": 1}}, "unknown maneuver family 'loop'"),
-    ({"mix": {"3211": 0}}, "at least one positive weight"),
+    ({"protocol": {"mix": {"loop": 1}}}, "unknown maneuver family 'loop'"),
+    ({"protocol": {"mix": {"3211": 0}}}, "at least one positive weight"),
     ({"seed": -1}, "seed must be a non-negative integer"),
-    ({"altitudes_m": []}, "altitudes_m must be a non-empty"),
-    ({"airspeeds_mps": [100.0, 100.0]}, "duplicates"),
-    ({"sos_duration_s": (5.0, 1.0)}, "sos_duration_s"),
-    ({"sos_duration_s": 100.0}, "sos_duration_s"),
-    ({"mix": {"3211": "a lot"}}, "mix weight of '3211' must be a non-negative number"),
+    ({"grid": {"altitudes_m": []}}, "altitudes_m must be a non-empty"),
+    ({"grid": {"airspeeds_mps": [100.0, 100.0]}}, "duplicates"),
+    ({"protocol": {"sos_duration_s": (5.0, 1.0)}}, "sos_duration_s"),
+    ({"protocol": {"sos_duration_s": 100.0}}, "sos_duration_s"),
+    ({"protocol": {"mix": {"3211": "a lot"}}},
+     "mix weight of '3211' must be a non-negative number"),
     ({"sensors": "none"}, "sensors must be"),
     ({"envelope": {"alpha_max": 1.0}}, "envelope must be"),
-    ({"min_kept_s": -1.0}, "min_kept_s must be a number of seconds"),
-    ({"turn_fraction": 1.5}, "turn_fraction must be a number in"),
-    ({"pilot_delay_s": float("nan")}, "pilot_delay_s must be"),
+    ({"grid": "none"}, "grid must be"),
+    ({"protocol": "none"}, "protocol must be"),
+    ({"protocol": {"min_kept_s": -1.0}}, "min_kept_s must be a number of seconds"),
+    ({"protocol": {"turn_fraction": 1.5}}, "turn_fraction must be a number in"),
+    ({"protocol": {"pilot_delay_s": float("nan")}}, "pilot_delay_s must be"),
 ])
 def test_invalid_campaigns_are_rejected(kwargs, match):
+    """Settings objects check their own values when made; the campaign checks the rest."""
     kwargs = {"aircraft": "f16", **kwargs}
     with pytest.raises(InputError, match=match):
+        for key, cls in (("grid", ConditionGrid), ("protocol", FlightProtocol)):
+            if isinstance(kwargs.get(key), dict):
+                kwargs[key] = cls(**kwargs[key])
         Campaign(**kwargs).run(workers=1, progress=False)
 
 
@@ -331,7 +338,7 @@ def test_default_grid_campaign_stays_inside_and_covers(aircraft):
 def test_a_dying_worker_is_reported_as_a_simulation_error():
     import os
 
-    from simplexspline.sim.campaign import _Executor
+    from simplexspline.sim.campaign import Executor
 
-    with _Executor(2) as ex, pytest.raises(SimulationError, match="worker process died"):
+    with Executor(2) as ex, pytest.raises(SimulationError, match="worker process died"):
         list(ex.map(os._exit, [3, 3], [1.0, 1.0], progress=False, desc="crash"))

@@ -1,41 +1,35 @@
 """Command-line interface: thin commands over the public API.
 
-Each sub-command lives in its own module exposing ``register(subparsers)``; the module's
-parser sets ``func`` (called with the parsed arguments, returning an exit code). Errors
-from the library become one-line messages and exit code 2, never tracebacks.
+Each sub-command lives in its own module exposing ``register(subparsers)``, which adds and
+returns the command's parser, and ``run(args)``, which executes the command with the parsed
+arguments and returns an exit code. Errors from the library become one-line messages and
+exit code 2, never tracebacks.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 from collections.abc import Sequence
 
+from simplexspline._version import __version__
+from simplexspline.cli import demo, derivatives, export, identify, reconstruct, simulate
 from simplexspline.errors import SimplexSplineError
 
 #: Sub-command modules, in the order ``--help`` lists them.
-_COMMANDS = ("identify", "simulate", "reconstruct", "export", "derivatives", "demo")
+COMMANDS = (identify, simulate, reconstruct, export, derivatives, demo)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Build the top-level parser with every available sub-command."""
-    from simplexspline._version import __version__
-
+    """Build the top-level parser with every sub-command."""
     parser = argparse.ArgumentParser(
         prog="simplexspline",
         description="Multivariate simplex splines and aerodynamic model identification.",
     )
     parser.add_argument("--version", action="version", version=f"simplexspline {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in _COMMANDS:
-        try:
-            module = importlib.import_module(f"simplexspline.cli.{name}")
-        except ModuleNotFoundError as exc:  # a command whose module is not present yet
-            if exc.name == f"simplexspline.cli.{name}":
-                continue
-            raise
-        module.register(sub)
+    for command in COMMANDS:
+        command.register(sub).set_defaults(func=command.run)
     return parser
 
 

@@ -17,7 +17,8 @@ def _truth(x: np.ndarray) -> np.ndarray:
             + 0.2 * x[:, 2] ** 2)
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the command's parser to ``sub``; :func:`run` executes it."""
     p = sub.add_parser(
         "demo",
         help="fit a 3-D function from scattered noisy samples and print validation errors",
@@ -33,10 +34,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="save the fitted model to this .json or .npz file")
-    p.set_defaults(func=run)
+    return p
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``simplexspline demo`` with the parsed arguments; returns the exit code."""
     rng = np.random.default_rng(args.seed)
     n_all = args.samples
     # Scattered, non-uniform samples inside the unit ball scaled to [-1, 1]^3 (data do not

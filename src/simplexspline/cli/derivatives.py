@@ -11,19 +11,26 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 
+from simplexspline._files import atomic_write, jsonable, write_text
+from simplexspline._version import __version__
+from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
+from simplexspline.aero.derivatives.stability import derivatives, load_models, long_table
+from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError
+from simplexspline.spline.geometry.outside import SPLINE_POLICIES
 
 _NUMBER = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(deg/s|deg|rad/s|rad)?"
                      r"\s*$")
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the command's parser to ``sub``; :func:`run` executes it."""
     p = sub.add_parser(
         "derivatives",
         help="stability and control derivatives (Cm_alpha, Cl_beta, Cm_q, ...) of identified "
@@ -70,26 +77,20 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "conversions need tas (--at tas=...) and --geometry")
     p.add_argument("--geometry", default=None, metavar="b=...,cbar=...",
                    help="wing span b and mean aerodynamic chord cbar [m] for rate conversions")
-    p.add_argument("--outside", choices=("nan", "extrapolate", "raise"), default="nan",
+    p.add_argument("--outside", choices=SPLINE_POLICIES, default="nan",
                    help="conditions outside a model's domain: NaN (default), the nearest "
                    "simplex's polynomial (flagged in inside_<C>), or an error")
     p.add_argument("--long", action="store_true",
                    help="long table: one row per condition and derivative")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
-    p.set_defaults(func=handler)
     # let '--alpha -5:20:26deg' read as a value (argparse takes only plain negative numbers
     # for values; '--alpha=-5:20:26deg' works everywhere)
     if hasattr(p, "_negative_number_matcher"):
         p._negative_number_matcher = re.compile(r"^-\.?\d")
+    return p
 
 
 # ---------------------------------------------------------------------------- parsing
-def _unit(var: str) -> str:
-    from simplexspline.aero.modelling.structure import UNITS
-
-    return UNITS.get(var, "")
-
-
 def parse_value(var: str, text: str, default_unit: str | None = None) -> float:
     """One value of ``var`` in SI units from text with an optional unit suffix."""
     m = _NUMBER.match(text)
@@ -97,7 +98,7 @@ def parse_value(var: str, text: str, default_unit: str | None = None) -> float:
         raise InputError(f"cannot read {text!r} as a value of {var} (a number with optional "
                          "suffix deg or rad)")
     value, suffix = float(m.group(1)), m.group(2) or default_unit
-    unit = _unit(var)
+    unit = UNITS.get(var, "")
     if suffix in ("deg", "deg/s"):
         if unit not in ("rad", "rad/s") or (suffix == "deg/s") != (unit == "rad/s"):
             raise InputError(f"{var} [{unit or 'no unit'}] cannot take a {suffix!r} value "
@@ -177,35 +178,8 @@ def _box(models, var: str):
 
 
 # ---------------------------------------------------------------------------- writing
-def _atomic(path: Path, write) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, (np.bool_, bool)):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
-
-
 def describe(table, sources) -> dict:
     """The ``.csv.json`` description of a derivative table's columns."""
-    from simplexspline._version import __version__
-    from simplexspline.aero.modelling.structure import UNITS
-
     attrs = table.attrs
     info = attrs.get("derivatives", {})
     cols = {}
@@ -220,7 +194,7 @@ def describe(table, sources) -> dict:
                        f"in the simplex of the {c[8:]} model holding the condition"}
         else:
             cols[c] = {"kind": "condition", "unit": UNITS.get(c, "?")}
-    return _jsonable({
+    return jsonable({
         "format": "simplexspline.derivatives", "version": 1,
         "software": f"simplexspline {__version__}",
         "convention": "partial derivatives holding the model's other variables fixed; SI "
@@ -235,34 +209,24 @@ def describe(table, sources) -> dict:
 
 
 def _write_table(table, path: Path, sources, long: bool) -> None:
-    from simplexspline.aero.derivatives.stability import _long
-
     meta = describe(table, sources)
     out = table
     if long:
         cond = [c for c, d in meta["columns"].items() if d["kind"] == "condition"]
-        out = _long(table, cond)
+        out = long_table(table, cond)
         meta["layout"] = "long"
         meta["long_columns"] = {"point": "row of the conditions", "value": "the derivative",
                                 "in_model": "the model depends on the variable",
                                 "inside": "the condition lies in the model's domain"}
     else:
         meta["layout"] = "wide"
-    _atomic(path, lambda p: out.to_csv(p, index=False, float_format="%.10g"))
-    side = path.with_name(path.name + ".json")
-    _atomic(side, lambda p: p.write_text(json.dumps(meta, indent=1) + "\n",
-                                         encoding="utf-8"))
+    atomic_write(path, lambda p: out.to_csv(p, index=False, float_format="%.10g"))
+    write_text(path.with_name(path.name + ".json"), json.dumps(meta, indent=1) + "\n")
 
 
-# ---------------------------------------------------------------------------- handler
-def handler(args: argparse.Namespace) -> int:
-    from simplexspline.aero.derivatives.stability import (
-        derivatives,
-        load_models,
-        plot_derivative_map,
-        plot_derivatives,
-    )
-
+# ---------------------------------------------------------------------------- command
+def run(args: argparse.Namespace) -> int:
+    """Run ``simplexspline derivatives`` with the parsed arguments; returns the exit code."""
     out: Path = args.output
     if out.suffix.lower() != ".csv":
         raise InputError(f"output {str(out)!r} must end in .csv")
@@ -311,21 +275,19 @@ def handler(args: argparse.Namespace) -> int:
                         outside=args.outside, geometry=geometry, reference=fixed)
     _write_table(table, out, args.models, args.long)
     if args.plot is not None:
-        import warnings
-
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)    # constrained-layout squeezes
             fig = (plot_derivative_map(table, ncols=4) if args.map
                    else plot_derivatives(table, ncols=4))
             fmt = args.plot.suffix.lower()[1:]
-            _atomic(args.plot, lambda p: fig.savefig(p, format=fmt, dpi=100))
+            atomic_write(args.plot, lambda p: fig.savefig(p, format=fmt, dpi=100))
     if not args.quiet:
         _print_summary(models, table, out, args, fixed, geometry)
     return 0
 
 
 def _read_points(path: Path):
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'aero' extra)
 
     if not path.is_file():
         raise InputError(f"conditions file {str(path)!r} does not exist")
@@ -340,8 +302,6 @@ def _read_points(path: Path):
 
 
 def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) -> None:
-    from simplexspline.aero.derivatives.stability import derivatives
-
     info = table.attrs["derivatives"]
     inmodel = [k for k, d in info.items() if d["in_model"]]
     print(f"{out}: {len(table)} conditions x {len(info)} derivatives ({len(inmodel)} in the "
@@ -368,6 +328,6 @@ def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) 
 
 
 def _show(var: str, value: float) -> str:
-    if _unit(var) == "rad":
+    if UNITS.get(var) == "rad":
         return f"{math.degrees(value):.3g} deg"
     return f"{value:.4g}"

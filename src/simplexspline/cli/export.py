@@ -6,12 +6,16 @@ import argparse
 import re
 from pathlib import Path
 
+from simplexspline.aero.export.c_code import generate_aero_c, load_exportable
+from simplexspline.aero.export.lookup_tables import lookup_table, model_variables, parse_grid
+from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.errors import InputError
+from simplexspline.spline.formats.c_export import generate_c
+from simplexspline.spline.geometry.outside import EXPORT_POLICIES
 
-POLICIES = ("clamp", "nan", "extrapolate")
 
-
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the command's parser to ``sub``; :func:`run` executes it."""
     p = sub.add_parser(
         "export",
         help="export a model as dependency-free C99 code (value and gradient) and/or a "
@@ -40,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="breakpoints of one variable for --table: NAME=START:STOP:NUM "
                    "(NUM values, ends included) or NAME=V1,V2,... or NAME=V (fixed); "
                    "one per model variable")
-    p.add_argument("--outside", choices=POLICIES, default=None,
+    p.add_argument("--outside", choices=EXPORT_POLICIES, default=None,
                    help="outside-domain policy: the C default and the table's (default: "
                    "clamp for aerodynamic models, nan for plain splines)")
     p.add_argument("--property", action="append", default=[], metavar="NAME=PROP",
@@ -49,12 +53,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--function-name", default=None,
                    help="name of the JSBSim <function> (aero/coefficient/<C>)")
     p.add_argument("-q", "--quiet", action="store_true", help="no output")
-    p.set_defaults(func=handler)
+    return p
 
 
 def _default_prefix(model, path: Path) -> str:
-    from simplexspline.aero.modelling.model import AeroModel
-
     stem = model.coefficient.lower() if isinstance(model, AeroModel) else path.stem
     name = re.sub(r"[^A-Za-z0-9_]", "_", stem).strip("_") or "model"
     return name if name[0].isalpha() else f"m_{name}"
@@ -71,8 +73,6 @@ def _pairs(items, option: str) -> dict:
 
 
 def _grid(args, variables) -> dict:
-    from simplexspline.aero.export.c_code import parse_grid
-
     grid = {}
     for spec in args.grid:
         name, values = parse_grid(spec)
@@ -89,16 +89,8 @@ def _grid(args, variables) -> dict:
     return grid
 
 
-def handler(args: argparse.Namespace) -> int:
-    from simplexspline.aero.export.c_code import (
-        generate_aero_c,
-        load_exportable,
-        lookup_table,
-        model_variables,
-    )
-    from simplexspline.aero.modelling.model import AeroModel
-    from simplexspline.spline.formats.c_export import generate_c
-
+def run(args: argparse.Namespace) -> int:
+    """Run ``simplexspline export`` with the parsed arguments; returns the exit code."""
     if args.c_dir is None and args.table is None:
         raise InputError("nothing to export: give --c DIR and/or --table OUT")
     if args.table is None and (args.grid or args.property or args.function_name):

@@ -13,13 +13,18 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
+from simplexspline.aero.config import load_config, parse_structure
+from simplexspline.aero.data.flight_data import read_flight_data
+from simplexspline.aero.identify import IdentificationSettings, ThinDataWarning, file_hash, identify
 from simplexspline.errors import InputError
+from simplexspline.sim import Campaign
 
 #: The embedded default campaign of the main job (fits in about a minute on 2 cores).
 DEFAULT_CAMPAIGN = {"aircraft": "f16", "maneuvers": 60, "seed": 0}
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the command's parser to ``sub``; :func:`run` executes it."""
     p = sub.add_parser(
         "identify",
         help="identify a global aerodynamic model (CX..Cn simplex splines) from flight data;"
@@ -66,13 +71,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--aircraft", default=None,
                    help="aircraft of the simulated campaign without DATA (f16)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
-    p.set_defaults(func=handler)
+    return p
 
 
 def _settings(args):
-    from simplexspline.aero.config import load_config, parse_structure
-    from simplexspline.aero.identify import IdentificationSettings
-
     settings = IdentificationSettings()
     if args.data is None:  # the main job: the simulated aircraft's preset, short search
         aircraft = args.aircraft or DEFAULT_CAMPAIGN["aircraft"]
@@ -108,12 +110,6 @@ def _settings(args):
 
 
 def _simulate(args, log):
-    try:
-        from simplexspline.sim import Campaign
-    except ImportError as exc:
-        raise InputError("the main job simulates a campaign with JSBSim: install the 'sim' "
-                         f"extra (pip install 'simplexspline[sim]') or give DATA ({exc})") \
-            from None
     aircraft = args.aircraft or DEFAULT_CAMPAIGN["aircraft"]
     n = args.maneuvers or DEFAULT_CAMPAIGN["maneuvers"]
     seed = DEFAULT_CAMPAIGN["seed"] if args.seed is None else args.seed
@@ -123,10 +119,8 @@ def _simulate(args, log):
     return df, dict(df.attrs), f"simulated {aircraft} campaign, {n} maneuvers, seed {seed}"
 
 
-def handler(args: argparse.Namespace) -> int:
-    from simplexspline.aero.data.flight_data import read_flight_data
-    from simplexspline.aero.identify import ThinDataWarning, file_hash, identify
-
+def run(args: argparse.Namespace) -> int:
+    """Run ``simplexspline identify`` with the parsed arguments; returns the exit code."""
     t0 = time.perf_counter()
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, flush=True))
     if args.data is not None and (args.aircraft or args.maneuvers):

@@ -7,10 +7,13 @@ import sys
 import time
 from pathlib import Path
 
+from simplexspline.aero.data.flight_data import read_flight_data, write_flight_data
+from simplexspline.aero.reconstruction.reconstruct import ReconstructionSettings, reconstruct
 from simplexspline.errors import InputError
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the command's parser to ``sub``; :func:`run` executes it."""
     p = sub.add_parser(
         "reconstruct",
         help="reconstruct states and sensor biases (IEKF) and compute the aerodynamic "
@@ -38,13 +41,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--min-duration", type=float, default=2.0,
                    help="reject maneuvers shorter than this [s] (2.0)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
-    p.set_defaults(func=handler)
+    return p
 
 
-def handler(args: argparse.Namespace) -> int:
-    from simplexspline.aero.data.flight_data import read_flight_data, write_flight_data
-    from simplexspline.aero.reconstruction.reconstruct import ReconstructionSettings, reconstruct
-
+def run(args: argparse.Namespace) -> int:
+    """Run ``simplexspline reconstruct`` with the parsed arguments; returns the exit code."""
     if args.output.suffix.lower() not in (".parquet", ".pq", ".csv"):
         raise InputError(f"output {str(args.output)!r} must end in .parquet or .csv")
     if not args.output.parent.is_dir():

@@ -7,7 +7,9 @@ import sys
 import time
 from pathlib import Path
 
+from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError
+from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
 
 
 def _floats(text: str) -> list[float]:
@@ -33,7 +35,8 @@ def _mix(text: str) -> dict[str, float]:
     return out
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the command's parser to ``sub``; :func:`run` executes it."""
     p = sub.add_parser(
         "simulate",
         help="simulate a flight-test campaign on JSBSim and write it in the flight-data schema",
@@ -68,13 +71,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="output file, .parquet (preferred) or .csv (+ .csv.json metadata)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
-    p.set_defaults(func=run)
+    return p
 
 
 def run(args: argparse.Namespace) -> int:
-    from simplexspline.aero.data.flight_data import write_flight_data
-    from simplexspline.sim import Campaign, SensorModel
-
+    """Run ``simplexspline simulate`` with the parsed arguments; returns the exit code."""
     if args.output.suffix.lower() not in (".parquet", ".pq", ".csv"):
         raise InputError(f"output {str(args.output)!r} must end in .parquet or .csv")
     if not args.output.parent.is_dir():
@@ -83,10 +84,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--noise-scale and --bias-scale must be non-negative")
     sensors = (SensorModel.ideal() if args.ideal_sensors
                else SensorModel().scaled(noise=args.noise_scale, bias=args.bias_scale))
-    campaign = Campaign(args.aircraft, altitudes_m=args.altitudes,
-                        airspeeds_mps=args.airspeeds, maneuvers=args.maneuvers,
-                        maneuvers_per_condition=args.per_condition, mix=args.mix,
-                        seed=args.seed, sensors=sensors, turn_fraction=args.turn_fraction)
+    campaign = Campaign(args.aircraft, maneuvers=args.maneuvers,
+                        maneuvers_per_condition=args.per_condition, seed=args.seed,
+                        grid=ConditionGrid(altitudes_m=args.altitudes,
+                                           airspeeds_mps=args.airspeeds),
+                        protocol=FlightProtocol(mix=args.mix, turn_fraction=args.turn_fraction),
+                        sensors=sensors)
     t0 = time.perf_counter()
     df = campaign.run(workers=args.workers,
                       progress=(not args.quiet) and sys.stderr.isatty())

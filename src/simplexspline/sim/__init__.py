@@ -1,7 +1,8 @@
 """Simulated flight-test campaigns on JSBSim (optional extra ``simplexspline[sim]``).
 
-Describe a campaign (aircraft, altitude x airspeed grid, number and mix of maneuvers,
-sensors, seed), run it, get one table per campaign in the flight-data schema
+Describe a campaign (aircraft, number of maneuvers, seed, the altitude x airspeed
+:class:`ConditionGrid`, the maneuver mix and flying of the :class:`FlightProtocol`, sensors),
+run it, get one table per campaign in the flight-data schema
 (``docs/flight-data-schema.md``)::
 
     from simplexspline.sim import Campaign
@@ -26,7 +27,13 @@ from simplexspline.sim.aircraft import (
     register_aircraft,
 )
 from simplexspline.sim.campaign_table import envelope_coverage
-from simplexspline.sim.campaign import DEFAULT_MIX, Campaign, simulate_campaign
+from simplexspline.sim.campaign import (
+    DEFAULT_MIX,
+    Campaign,
+    ConditionGrid,
+    FlightProtocol,
+    simulate_campaign,
+)
 from simplexspline.sim.maneuvers import MANEUVER_FAMILIES, MANEUVER_TYPES
 from simplexspline.sim.sensors import (
     DEFAULT_BIAS,
@@ -37,6 +44,8 @@ from simplexspline.sim.sensors import (
 
 __all__ = [
     "Campaign",
+    "ConditionGrid",
+    "FlightProtocol",
     "simulate_campaign",
     "SensorModel",
     "Envelope",

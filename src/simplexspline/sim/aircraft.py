@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field, replace
 
+from simplexspline.aero.variables import DEG
 from simplexspline.errors import InputError
 
 __all__ = [
@@ -29,7 +30,6 @@ __all__ = [
     "SURFACE_SIGN_CONVENTIONS",
 ]
 
-_DEG = math.pi / 180.0
 
 SURFACE_SIGN_CONVENTIONS = {
     "de": "positive trailing edge down; gives a nose-down pitching moment (dCm/dde < 0)",
@@ -220,23 +220,23 @@ _F16 = AircraftProfile(
     # Actuators after Stevens & Lewis' F-16 model: 20.2 rad/s lag, 60/80/120 deg/s.
     # only the properties the f16's aerodynamics read (the FCS that would derive the
     # others is off)
-    elevator=Surface(0.436, 60 * _DEG, 1 / 20.2, (("fcs/elevator-pos-rad", 1.0),)),
-    aileron=Surface(0.375, 80 * _DEG, 1 / 20.2, (("fcs/aileron-pos-rad", 1.0),)),
-    rudder=Surface(0.524, 120 * _DEG, 1 / 20.2, (("fcs/rudder-pos-rad", 1.0),)),
+    elevator=Surface(0.436, 60 * DEG, 1 / 20.2, (("fcs/elevator-pos-rad", 1.0),)),
+    aileron=Surface(0.375, 80 * DEG, 1 / 20.2, (("fcs/aileron-pos-rad", 1.0),)),
+    rudder=Surface(0.524, 120 * DEG, 1 / 20.2, (("fcs/rudder-pos-rad", 1.0),)),
     throttles=("fcs/throttle-pos-norm",),
     tanks=("propulsion/tank/contents-lbs", "propulsion/tank[1]/contents-lbs"),
     control_power=(-0.53, 0.050, -0.046),
     altitudes_m=(1500.0, 3000.0, 4500.0, 6000.0, 7500.0, 9000.0, 10500.0),
     airspeeds_mps=(110.0, 140.0, 170.0, 200.0, 230.0, 260.0),
-    envelope=Envelope(alpha_min=-10 * _DEG, alpha_max=25 * _DEG, beta_max=10 * _DEG,
-                      phi_max=75 * _DEG, theta_max=60 * _DEG, nz_min=-2.0, nz_max=7.0,
+    envelope=Envelope(alpha_min=-10 * DEG, alpha_max=25 * DEG, beta_max=10 * DEG,
+                      phi_max=75 * DEG, theta_max=60 * DEG, nz_min=-2.0, nz_max=7.0,
                       mach_max=0.95, h_min=300.0),
     pulse_unit_s=(0.25, 0.6),
     pulse_accel=((0.5, 1.3), (1.5, 4.0), (0.3, 0.9)),
     pulse_qbar_ref=9000.0,
     sos_accel_rms=(0.35, 1.0, 0.2),
     sos_band_hz=(0.1, 2.0),
-    sos_bank=60 * _DEG,
+    sos_bank=60 * DEG,
     pilot_bandwidth=(2.0, 2.5),
     sas_damping=(3.0, 3.0, 1.5),
     schedules=(("fcs/lef-pos-rad", 0.0,
@@ -249,25 +249,25 @@ _GLOBAL5000 = AircraftProfile(
     name="global5000",
     model="global5000",
     # the aerodynamics read the left aileron only, and the drag |elevator-pos-norm|
-    elevator=Surface(0.35, 40 * _DEG, 0.08,
+    elevator=Surface(0.35, 40 * DEG, 0.08,
                      (("fcs/elevator-pos-rad", 1.0), ("fcs/elevator-pos-norm", 1 / 0.35))),
-    aileron=Surface(0.35, 40 * _DEG, 0.08, (("fcs/left-aileron-pos-rad", 1.0),)),
-    rudder=Surface(0.35, 40 * _DEG, 0.08, (("fcs/rudder-pos-rad", 1.0),)),
+    aileron=Surface(0.35, 40 * DEG, 0.08, (("fcs/left-aileron-pos-rad", 1.0),)),
+    rudder=Surface(0.35, 40 * DEG, 0.08, (("fcs/rudder-pos-rad", 1.0),)),
     throttles=("fcs/throttle-pos-norm", "fcs/throttle-pos-norm[1]"),
     tanks=("propulsion/tank/contents-lbs", "propulsion/tank[1]/contents-lbs",
            "propulsion/tank[2]/contents-lbs"),
     control_power=(-0.90, 0.100, -0.100),
     altitudes_m=(1500.0, 3000.0, 4500.0, 6000.0, 7500.0, 9000.0, 10500.0, 12000.0),
     airspeeds_mps=(120.0, 145.0, 170.0, 195.0, 220.0, 245.0),
-    envelope=Envelope(alpha_min=-5 * _DEG, alpha_max=12 * _DEG, beta_max=8 * _DEG,
-                      phi_max=45 * _DEG, theta_max=30 * _DEG, nz_min=-0.5, nz_max=2.5,
+    envelope=Envelope(alpha_min=-5 * DEG, alpha_max=12 * DEG, beta_max=8 * DEG,
+                      phi_max=45 * DEG, theta_max=30 * DEG, nz_min=-0.5, nz_max=2.5,
                       mach_max=0.89, h_min=300.0),
     pulse_unit_s=(0.5, 1.2),
     pulse_accel=((0.15, 0.45), (0.3, 0.9), (0.08, 0.25)),
     pulse_qbar_ref=20000.0,
     sos_accel_rms=(0.15, 0.4, 0.08),
     sos_band_hz=(0.05, 1.5),
-    sos_bank=30 * _DEG,
+    sos_bank=30 * DEG,
     pilot_bandwidth=(1.5, 1.5),
     sas_damping=(2.0, 2.0, 1.0),
     flap_property="fcs/flap-pos-deg",

@@ -15,22 +15,27 @@ number of workers or on which worker flew what.
 from __future__ import annotations
 
 import math
+import multiprocessing
 import os
 import sys
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
+from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile, Envelope, get_aircraft
-from simplexspline.sim.maneuvers import AXES, MANEUVER_FAMILIES, design_maneuver
+from simplexspline.sim.campaign_table import assemble
 from simplexspline.sim.flight import simulate_maneuver, trim_condition
+from simplexspline.sim.maneuvers import AXES, MANEUVER_FAMILIES, design_maneuver
 from simplexspline.sim.sensors import SensorModel
 
-__all__ = ["Campaign", "simulate_campaign", "DEFAULT_MIX", "isa_speed_of_sound"]
+__all__ = ["Campaign", "ConditionGrid", "FlightProtocol", "simulate_campaign", "DEFAULT_MIX",
+           "isa_speed_of_sound"]
 
 #: Default fractions of maneuver families (about 40 s of flight per maneuver on average).
 DEFAULT_MIX: dict[str, float] = {"3211": 0.45, "doublet": 0.2, "sum-of-sines": 0.35}
@@ -71,94 +76,68 @@ def _counts(total: int, weights: Sequence[float]) -> list[int]:
     return base.tolist()
 
 
-class Campaign:
-    """A simulated flight-test campaign on a JSBSim aircraft.
+@dataclass(frozen=True)
+class ConditionGrid:
+    """The flight-condition grid of a campaign: altitude x airspeed.
 
     Parameters
     ----------
-    aircraft : str or AircraftProfile
-        ``'f16'`` (strongly nonlinear), ``'global5000'`` (business jet) or a registered
-        profile.
     altitudes_m, airspeeds_mps : sequence of float, optional
-        Flight-condition grid: geometric altitude [m] x true airspeed [m/s]; the profile's
-        defaults if None. Grid points above the Mach limit or that cannot be trimmed with
-        margin are skipped (listed in the metadata's ``conditions``).
-    maneuvers : int
-        Total number of maneuvers (spread evenly over the usable conditions). Ignored when
-        ``maneuvers_per_condition`` is given.
-    maneuvers_per_condition : int, optional
-        Number of maneuvers at every usable condition.
+        Geometric altitude [m] x true airspeed [m/s]; the profile's defaults if None (stored
+        sorted). Grid points above the Mach limit or that cannot be trimmed with margin are
+        skipped (listed in the metadata's ``conditions``).
+    jitter : bool
+        Trim each maneuver at a random point within half a grid spacing of its condition,
+        so that the campaign covers the envelope between grid points.
+    """
+
+    altitudes_m: Sequence[float] | None = None
+    airspeeds_mps: Sequence[float] | None = None
+    jitter: bool = True
+
+    def __post_init__(self):
+        for name in ("altitudes_m", "airspeeds_mps"):
+            values = getattr(self, name)
+            if values is not None:
+                object.__setattr__(self, name, tuple(_grid(values, name).tolist()))
+
+    def values(self, profile: AircraftProfile) -> tuple[np.ndarray, np.ndarray]:
+        """Sorted altitudes (m,) [m] and airspeeds (k,) [m/s]; the profile's where not given."""
+        return (_grid(profile.altitudes_m if self.altitudes_m is None else self.altitudes_m,
+                      "altitudes_m"),
+                _grid(profile.airspeeds_mps if self.airspeeds_mps is None
+                      else self.airspeeds_mps, "airspeeds_mps"))
+
+
+@dataclass(frozen=True)
+class FlightProtocol:
+    """Which maneuvers a campaign flies and how: the flight-test protocol.
+
+    Parameters
+    ----------
     mix : mapping of str to float, optional
         Relative frequency of the maneuver families '3211', 'doublet' and 'sum-of-sines'
         (default :data:`DEFAULT_MIX`); pulse families rotate over elevator, aileron and
         rudder.
-    seed : int
-        Non-negative seed; the same seed gives identical output.
-    sensors : SensorModel, optional
-        Noise, biases and lags of the measured channels (default: ``SensorModel()``);
-        ``SensorModel.ideal()`` for perfect sensors.
-    envelope : Envelope, optional
-        Limits of kept data (default: the profile's).
     sos_duration_s : (float, float)
         Range of sum-of-sines signal lengths [s].
     turn_fraction : float
         Fraction of sum-of-sines maneuvers flown in a level turn at a random bank angle
         (load factor and angle of attack above their 1 g values); the others are straight
         and level as in the paper. 0 reproduces the paper's protocol exactly.
-    jitter : bool
-        Trim each maneuver at a random point within half a grid spacing of its condition,
-        so that the campaign covers the envelope between grid points.
     pilot_delay_s : float
         Reaction delay of the pilot model [s].
     min_kept_s : float
         A maneuver cut at the envelope earlier than this is dropped entirely [s].
-
-    Examples
-    --------
-    >>> from simplexspline.sim import Campaign, SensorModel
-    >>> df = Campaign("f16", altitudes_m=[3000], airspeeds_mps=[170], maneuvers=2,
-    ...               mix={"doublet": 1}, seed=1).run(workers=1, progress=False)
-    >>> df.attrs["schema"], sorted(df["maneuver"].unique().tolist())
-    ('simplexspline.flightdata/1', [0, 1])
     """
 
-    def __init__(self, aircraft: str | AircraftProfile = "f16", *,
-                 altitudes_m: Sequence[float] | None = None,
-                 airspeeds_mps: Sequence[float] | None = None,
-                 maneuvers: int = 250, maneuvers_per_condition: int | None = None,
-                 mix: Mapping[str, float] | None = None, seed: int = 0,
-                 sensors: SensorModel | None = None, envelope: Envelope | None = None,
-                 sos_duration_s: tuple = (90.0, 110.0), turn_fraction: float = 0.5,
-                 jitter: bool = True,
-                 pilot_delay_s: float = 0.2, min_kept_s: float = 3.0):
-        self.aircraft = aircraft
-        self.altitudes_m = altitudes_m
-        self.airspeeds_mps = airspeeds_mps
-        self.maneuvers = maneuvers
-        self.maneuvers_per_condition = maneuvers_per_condition
-        self.mix = mix
-        self.seed = seed
-        self.sensors = sensors
-        self.envelope = envelope
-        self.sos_duration_s = sos_duration_s
-        self.turn_fraction = turn_fraction
-        self.jitter = jitter
-        self.pilot_delay_s = pilot_delay_s
-        self.min_kept_s = min_kept_s
+    mix: Mapping[str, float] | None = None
+    sos_duration_s: tuple[float, float] = (90.0, 110.0)
+    turn_fraction: float = 0.5
+    pilot_delay_s: float = 0.2
+    min_kept_s: float = 3.0
 
-    # ------------------------------------------------------------------ validation
-    def _settings(self) -> dict:
-        profile = get_aircraft(self.aircraft)
-        env = self.envelope if self.envelope is not None else profile.envelope
-        if not isinstance(env, Envelope):
-            raise InputError("envelope must be a simplexspline.sim.Envelope")
-        sensors = self.sensors if self.sensors is not None else SensorModel()
-        if not isinstance(sensors, SensorModel):
-            raise InputError("sensors must be a simplexspline.sim.SensorModel")
-        alts = _grid(profile.altitudes_m if self.altitudes_m is None else self.altitudes_m,
-                     "altitudes_m")
-        tas = _grid(profile.airspeeds_mps if self.airspeeds_mps is None
-                    else self.airspeeds_mps, "airspeeds_mps")
+    def __post_init__(self):
         mix = dict(DEFAULT_MIX if self.mix is None else self.mix)
         for fam, w in mix.items():
             if fam not in MANEUVER_FAMILIES:
@@ -168,14 +147,7 @@ class Campaign:
                 raise InputError(f"mix weight of {fam!r} must be a non-negative number")
         if sum(mix.values()) <= 0:
             raise InputError("mix needs at least one positive weight")
-        if self.maneuvers_per_condition is None:
-            if int(self.maneuvers) != self.maneuvers or self.maneuvers < 1:
-                raise InputError(f"maneuvers must be a positive integer, got {self.maneuvers!r}")
-        elif (int(self.maneuvers_per_condition) != self.maneuvers_per_condition
-              or self.maneuvers_per_condition < 1):
-            raise InputError("maneuvers_per_condition must be a positive integer")
-        if not (isinstance(self.seed, (int, np.integer)) and self.seed >= 0):
-            raise InputError(f"seed must be a non-negative integer, got {self.seed!r}")
+        object.__setattr__(self, "mix", mix)
         tf = self.turn_fraction
         if not (isinstance(tf, (int, float)) and 0 <= tf <= 1):
             raise InputError(f"turn_fraction must be a number in [0, 1], got {tf!r}")
@@ -189,8 +161,82 @@ class Campaign:
             lo, hi = math.nan, math.nan
         if not (10.0 <= lo <= hi):
             raise InputError("sos_duration_s must be (low, high) with 10 <= low <= high")
+        object.__setattr__(self, "sos_duration_s", (lo, hi))
+
+
+class Campaign:
+    """A simulated flight-test campaign on a JSBSim aircraft.
+
+    Parameters
+    ----------
+    aircraft : str or AircraftProfile
+        ``'f16'`` (strongly nonlinear), ``'global5000'`` (business jet) or a registered
+        profile.
+    maneuvers : int
+        Total number of maneuvers (spread evenly over the usable conditions). Ignored when
+        ``maneuvers_per_condition`` is given.
+    maneuvers_per_condition : int, optional
+        Number of maneuvers at every usable condition.
+    seed : int
+        Non-negative seed; the same seed gives identical output.
+    grid : ConditionGrid, optional
+        Flight conditions (default: the profile's altitude x airspeed grid, jittered).
+    protocol : FlightProtocol, optional
+        Maneuver mix, sum-of-sines lengths, turns, pilot delay, shortest kept maneuver
+        (default: ``FlightProtocol()``).
+    sensors : SensorModel, optional
+        Noise, biases and lags of the measured channels (default: ``SensorModel()``);
+        ``SensorModel.ideal()`` for perfect sensors.
+    envelope : Envelope, optional
+        Limits of kept data (default: the profile's).
+
+    Examples
+    --------
+    >>> from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol
+    >>> df = Campaign("f16", grid=ConditionGrid([3000], [170]), maneuvers=2,
+    ...               protocol=FlightProtocol(mix={"doublet": 1}), seed=1
+    ...               ).run(workers=1, progress=False)
+    >>> df.attrs["schema"], sorted(df["maneuver"].unique().tolist())
+    ('simplexspline.flightdata/1', [0, 1])
+    """
+
+    def __init__(self, aircraft: str | AircraftProfile = "f16", *, maneuvers: int = 250,
+                 maneuvers_per_condition: int | None = None, seed: int = 0,
+                 grid: ConditionGrid | None = None, protocol: FlightProtocol | None = None,
+                 sensors: SensorModel | None = None, envelope: Envelope | None = None):
+        self.aircraft = aircraft
+        self.maneuvers = maneuvers
+        self.maneuvers_per_condition = maneuvers_per_condition
+        self.seed = seed
+        self.grid = ConditionGrid() if grid is None else grid
+        self.protocol = FlightProtocol() if protocol is None else protocol
+        self.sensors = sensors
+        self.envelope = envelope
+
+    # ------------------------------------------------------------------ validation
+    def _settings(self) -> dict:
+        profile = get_aircraft(self.aircraft)
+        env = self.envelope if self.envelope is not None else profile.envelope
+        if not isinstance(env, Envelope):
+            raise InputError("envelope must be a simplexspline.sim.Envelope")
+        sensors = self.sensors if self.sensors is not None else SensorModel()
+        if not isinstance(sensors, SensorModel):
+            raise InputError("sensors must be a simplexspline.sim.SensorModel")
+        if not isinstance(self.grid, ConditionGrid):
+            raise InputError("grid must be a simplexspline.sim.ConditionGrid")
+        if not isinstance(self.protocol, FlightProtocol):
+            raise InputError("protocol must be a simplexspline.sim.FlightProtocol")
+        alts, tas = self.grid.values(profile)
+        if self.maneuvers_per_condition is None:
+            if int(self.maneuvers) != self.maneuvers or self.maneuvers < 1:
+                raise InputError(f"maneuvers must be a positive integer, got {self.maneuvers!r}")
+        elif (int(self.maneuvers_per_condition) != self.maneuvers_per_condition
+              or self.maneuvers_per_condition < 1):
+            raise InputError("maneuvers_per_condition must be a positive integer")
+        if not (isinstance(self.seed, (int, np.integer)) and self.seed >= 0):
+            raise InputError(f"seed must be a non-negative integer, got {self.seed!r}")
         return {"profile": profile, "envelope": env, "sensors": sensors, "altitudes": alts,
-                "airspeeds": tas, "mix": mix, "sos": (lo, hi)}
+                "airspeeds": tas}
 
     # ------------------------------------------------------------------ planning
     def _condition_specs(self, st: dict, scratch: str | None) -> list[dict]:
@@ -217,9 +263,10 @@ class Campaign:
         n = (len(usable) * int(self.maneuvers_per_condition)
              if self.maneuvers_per_condition is not None else int(self.maneuvers))
         rng = np.random.default_rng(np.random.SeedSequence(int(self.seed), spawn_key=(0,)))
-        fams = list(st["mix"])
+        protocol = self.protocol
+        fams = list(protocol.mix)
         kinds: list[str] = []
-        for fam, k in zip(fams, _counts(n, [st["mix"][f] for f in fams])):
+        for fam, k in zip(fams, _counts(n, [protocol.mix[f] for f in fams])):
             if fam == "sum-of-sines":
                 kinds += ["sum-of-sines"] * k
             else:
@@ -234,11 +281,11 @@ class Campaign:
             c = cond_of[i]
             design_rng = np.random.default_rng(
                 np.random.SeedSequence(int(self.seed), spawn_key=(1, i)).spawn(2)[0])
-            design = design_maneuver(kinds[i], profile, design_rng, st["sos"],
-                                     float(self.turn_fraction))
+            design = design_maneuver(kinds[i], profile, design_rng, protocol.sos_duration_s,
+                                     float(protocol.turn_fraction))
             jh, jv = design_rng.uniform(-1.0, 1.0, 2)
             h, v = c["h_m"], c["tas_mps"]
-            if self.jitter:
+            if self.grid.jitter:
                 h = h + jh * dh[c["h_m"]]
                 v = v + jv * dv[c["tas_mps"]]
                 v = min(v, (env.mach_max - 0.03) * isa_speed_of_sound(h))
@@ -250,8 +297,8 @@ class Campaign:
                 "h_nominal": c["h_m"], "tas_nominal": c["tas_mps"],
                 "psi_rad": float(design_rng.uniform(-math.pi, math.pi)),
                 "fuel_fraction": float(design_rng.uniform(*profile.fuel_fraction)),
-                "seed": int(self.seed), "min_kept_s": float(self.min_kept_s),
-                "pilot_delay_s": float(self.pilot_delay_s), "scratch": scratch,
+                "seed": int(self.seed), "min_kept_s": float(protocol.min_kept_s),
+                "pilot_delay_s": float(protocol.pilot_delay_s), "scratch": scratch,
             })
         return specs
 
@@ -260,7 +307,7 @@ class Campaign:
         """Trim every grid point; return one dict per condition (``trimmed``, ``reason``...)."""
         st = self._settings()
         with tempfile.TemporaryDirectory(prefix="ssim-") as scratch, \
-                _Executor(workers) as ex:
+                Executor(workers) as ex:
             return self._trim_all(st, ex, scratch, progress=False)
 
     def _trim_all(self, st, ex, scratch, progress) -> list[dict]:
@@ -307,7 +354,7 @@ class Campaign:
         if progress is None:
             progress = sys.stderr.isatty()
         with tempfile.TemporaryDirectory(prefix="ssim-") as scratch, \
-                _Executor(workers) as ex:
+                Executor(workers) as ex:
             conditions = self._trim_all(st, ex, scratch, progress)
             specs = self._plan(st, conditions, scratch)
             weights = [s["design"]["duration_s"] for s in specs]
@@ -315,12 +362,10 @@ class Campaign:
             for i, res in ex.map(simulate_maneuver, specs, weights, progress=progress,
                                  desc=f"{st['profile'].name} maneuvers"):
                 results[i] = res
-        from simplexspline.sim.campaign_table import assemble
-
         return assemble(results, conditions, st, self)
 
 
-class _Executor:
+class Executor:
     """Serial or process-pool execution of plain-data tasks, longest first, with tqdm."""
 
     def __init__(self, workers: int | None):
@@ -344,7 +389,7 @@ class _Executor:
 
     def map(self, func: Callable, specs: list, weights: list, *, progress: bool, desc: str):
         """Yield ``(position, result)`` as tasks finish."""
-        from tqdm import tqdm
+        from tqdm import tqdm  # optional dependency (the 'sim' extra)
 
         order = sorted(range(len(specs)), key=lambda i: -weights[i])
         with tqdm(total=len(specs), desc=desc, unit="task", disable=not progress,
@@ -355,8 +400,6 @@ class _Executor:
                     bar.update(1)
                 return
             if self.pool is None:
-                import multiprocessing
-
                 self.pool = ProcessPoolExecutor(
                     max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
             futures = {self.pool.submit(func, specs[i]): i for i in order}
@@ -391,8 +434,6 @@ def simulate_campaign(aircraft: str | AircraftProfile = "f16", *, maneuvers: int
     df = Campaign(aircraft, maneuvers=maneuvers, seed=seed, **kwargs).run(
         workers=workers, progress=progress)
     if output is not None:
-        from simplexspline.aero.data.flight_data import write_flight_data
-
         write_flight_data(df, output)
     return df
 

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
-from importlib.metadata import PackageNotFoundError, version
+from importlib.metadata import version
 
 import numpy as np
 
+from simplexspline._version import __version__
 from simplexspline.aero.data.flight_data import FLIGHT_DATA_COLUMNS, SCHEMA_VERSION
 from simplexspline.errors import SimulationError
 from simplexspline.sim.aircraft import SURFACE_SIGN_CONVENTIONS
@@ -26,19 +27,12 @@ COVERAGE_CHANNELS = {
 }
 
 
-def _version(dist: str) -> str:
-    try:
-        return version(dist)
-    except PackageNotFoundError:  # pragma: no cover
-        return "unknown"
-
-
 def assemble(results: list, conditions: list, st: dict, campaign):
     """One DataFrame (schema column order) from per-maneuver results, metadata in attrs.
 
     Consumes the column arrays of ``results`` (they are moved into the table).
     """
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'sim' extra)
 
     kept = [r for r in results if r["columns"]]
     logs = [r["log"] for r in results]
@@ -62,6 +56,7 @@ def assemble(results: list, conditions: list, st: dict, campaign):
     df = pd.DataFrame({c: data[c] for c in cols}, copy=False)
     S, b, cbar = kept[0]["geometry"]
     profile, env, sensors = st["profile"], st["envelope"], st["sensors"]
+    protocol = campaign.protocol
     status = [lg["status"] for lg in logs]
     meta = {
         "schema": SCHEMA_VERSION,
@@ -88,8 +83,8 @@ def assemble(results: list, conditions: list, st: dict, campaign):
             "reproduce them to rounding error."),
         "simulator": {
             "name": "simplexspline.sim",
-            "versions": {"simplexspline": _version("simplexspline"),
-                         "jsbsim": _version("jsbsim"), "numpy": _version("numpy")},
+            "versions": {"simplexspline": __version__, "jsbsim": version("jsbsim"),
+                         "numpy": np.__version__},
             "jsbsim_model": profile.model,
             "seed": int(campaign.seed),
             "dt_s": DT,
@@ -97,10 +92,10 @@ def assemble(results: list, conditions: list, st: dict, campaign):
                 "altitudes_m": st["altitudes"].tolist(),
                 "airspeeds_mps": st["airspeeds"].tolist(),
                 "maneuvers": len(results),
-                "mix": st["mix"], "sos_duration_s": list(st["sos"]),
-                "turn_fraction": float(campaign.turn_fraction),
-                "jitter": bool(campaign.jitter), "pilot_delay_s": campaign.pilot_delay_s,
-                "min_kept_s": campaign.min_kept_s,
+                "mix": dict(protocol.mix), "sos_duration_s": list(protocol.sos_duration_s),
+                "turn_fraction": float(protocol.turn_fraction),
+                "jitter": bool(campaign.grid.jitter), "pilot_delay_s": protocol.pilot_delay_s,
+                "min_kept_s": protocol.min_kept_s,
             },
             "sensors": sensors.to_dict(),
             "envelope": env.to_dict(),
@@ -140,7 +135,7 @@ def envelope_coverage(df, percentiles=(1, 50, 99)):
     pandas.DataFrame
         One row per channel of :data:`COVERAGE_CHANNELS` (display units: deg, deg/s, g).
     """
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'sim' extra)
 
     rows = {}
     for ch, (unit, f) in COVERAGE_CHANNELS.items():

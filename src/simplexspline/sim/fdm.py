@@ -55,7 +55,7 @@ IDX = {name: i for i, name in enumerate(RECORD)}
 def load_jsbsim():
     """Import jsbsim, or explain how to install it."""
     try:
-        import jsbsim
+        import jsbsim  # optional dependency (the 'sim' extra)
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise SimulationError(
             "the flight simulator needs JSBSim: pip install 'simplexspline[sim]'"

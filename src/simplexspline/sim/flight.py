@@ -18,7 +18,7 @@ from simplexspline.sim import units as u
 from simplexspline.sim.aircraft import AircraftProfile, Envelope
 from simplexspline.sim.fdm import IDX, Recorder, quiet_scratch, trim_fdm
 from simplexspline.sim.maneuvers import LEAD_S, excitation
-from simplexspline.sim.pilot import Actuator, Pilot
+from simplexspline.sim.pilot import Actuator, AircraftState, Pilot
 from simplexspline.sim.sensors import SensorModel
 
 __all__ = ["simulate_maneuver", "trim_condition", "DT"]
@@ -233,9 +233,10 @@ def _fly(fdm, profile: AircraftProfile, env: Envelope, design: dict, spec: dict,
         surf_extend((*deflections, flap_read() if flap_read else 0.0))
         if k == n - 1:
             break
-        de, da, dr, thr = command(s[11], s[10], s[12], s[7], s[8], s[9], s[4] * FT, s[2] * FT,
-                                  s[41] * FT, s[6] * PSF, s[32] * SL2, s[33] * SL2, s[34] * SL2,
-                                  s[0], nz)
+        de, da, dr, thr = command(AircraftState(
+            theta=s[11], phi=s[10], psi=s[12], p=s[7], q=s[8], r=s[9], h=s[4] * FT,
+            tas=s[2] * FT, vd=s[41] * FT, qbar=s[6] * PSF, ixx=s[32] * SL2, iyy=s[33] * SL2,
+            izz=s[34] * SL2, alpha=s[0], nz=nz))
         e = exc[k + 1]
         deflections = [act_e(de + e[0]), act_a(da + e[1]), act_r(dr + e[2])]
         d = deflections[0]

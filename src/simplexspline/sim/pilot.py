@@ -22,8 +22,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from typing import NamedTuple
 
-__all__ = ["Actuator", "Pilot"]
+__all__ = ["Actuator", "AircraftState", "Pilot"]
 
 _G0 = 9.80665
 
@@ -68,6 +69,26 @@ class Actuator:
             d = -m
         self.x += d
         return self.x
+
+
+class AircraftState(NamedTuple):
+    """The true aircraft state the pilot and the flight control computer read (SI, rad)."""
+
+    theta: float  #: pitch attitude [rad]
+    phi: float    #: bank angle [rad]
+    psi: float    #: heading [rad]
+    p: float      #: roll rate [rad/s]
+    q: float      #: pitch rate [rad/s]
+    r: float      #: yaw rate [rad/s]
+    h: float      #: altitude [m]
+    tas: float    #: true airspeed [m/s]
+    vd: float     #: down velocity [m/s] (minus the climb rate)
+    qbar: float   #: dynamic pressure [Pa]
+    ixx: float    #: roll inertia [kg m^2]
+    iyy: float    #: pitch inertia [kg m^2]
+    izz: float    #: yaw inertia [kg m^2]
+    alpha: float  #: angle of attack [rad]
+    nz: float     #: load factor [g]
 
 
 def _wrap(a: float) -> float:
@@ -147,12 +168,19 @@ class Pilot:
         self.buffer = (deque([(0.0, 0.0)] * (n_delay + 1), maxlen=n_delay + 1)
                        if n_delay else None)
 
-    def command(self, theta, phi, psi, p, q, r, h, tas, vd, qbar, ixx, iyy, izz, alpha, nz):
+    def command(self, state: AircraftState) -> tuple[float, float, float, float | None]:
         """Surface commands (de, da, dr) [rad] and throttle for the current true state.
 
-        Parameters are SI/rad; ``qbar`` in Pa, inertias in kg m^2, ``nz`` in g. Returns
-        ``(de, da, dr, throttle)``; throttle is None in autopilot mode (hold).
+        Parameters
+        ----------
+        state : AircraftState
+
+        Returns
+        -------
+        (float, float, float, float or None)
+            ``(de, da, dr, throttle)``; throttle is None in autopilot mode (hold).
         """
+        theta, phi, psi, p, q, r, h, tas, vd, qbar, ixx, iyy, izz, alpha, nz = state
         if tas < 1.0:
             tas = 1.0
         # --- outer loops: desired attitude --------------------------------------------

@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from simplexspline.aero.variables import DEG
 from simplexspline.errors import InputError
 
 __all__ = ["SensorModel", "MEASURED_CHANNELS", "DEFAULT_NOISE_STD", "DEFAULT_BIAS"]
 
-_DEG = math.pi / 180.0
 
 #: Channels the sensor model corrupts, with their units.
 MEASURED_CHANNELS: dict[str, str] = {
@@ -36,21 +36,21 @@ MEASURED_CHANNELS: dict[str, str] = {
 
 #: Default white-noise standard deviations (1 sigma, per 100 Hz sample).
 DEFAULT_NOISE_STD: dict[str, float] = {
-    "alpha": 0.1 * _DEG, "beta": 0.1 * _DEG, "tas": 0.1, "mach": 3e-4, "h": 0.5,
+    "alpha": 0.1 * DEG, "beta": 0.1 * DEG, "tas": 0.1, "mach": 3e-4, "h": 0.5,
     "rho": 5e-4,
-    "p": 0.01 * _DEG, "q": 0.01 * _DEG, "r": 0.01 * _DEG,
-    "phi": 0.05 * _DEG, "theta": 0.05 * _DEG, "psi": 0.1 * _DEG,
+    "p": 0.01 * DEG, "q": 0.01 * DEG, "r": 0.01 * DEG,
+    "phi": 0.05 * DEG, "theta": 0.05 * DEG, "psi": 0.1 * DEG,
     "ax": 0.01, "ay": 0.01, "az": 0.01,
     "pdot": 0.005, "qdot": 0.005, "rdot": 0.005,
-    "de": 0.02 * _DEG, "da": 0.02 * _DEG, "dr": 0.02 * _DEG,
+    "de": 0.02 * DEG, "da": 0.02 * DEG, "dr": 0.02 * DEG,
     "x_gps": 2.0, "y_gps": 2.0, "z_gps": 4.0,
     "vn_gps": 0.05, "ve_gps": 0.05, "vd_gps": 0.1,
 }
 
 #: Default constant biases (what a flight-path reconstruction has to estimate).
 DEFAULT_BIAS: dict[str, float] = {
-    "alpha": 0.2 * _DEG, "beta": -0.1 * _DEG, "tas": 0.5,
-    "p": 0.02 * _DEG, "q": -0.015 * _DEG, "r": 0.01 * _DEG,
+    "alpha": 0.2 * DEG, "beta": -0.1 * DEG, "tas": 0.5,
+    "p": 0.02 * DEG, "q": -0.015 * DEG, "r": 0.01 * DEG,
     "ax": 0.02, "ay": -0.015, "az": 0.03,
 }
 

@@ -24,15 +24,15 @@ from collections.abc import Mapping
 import numpy as np
 
 from simplexspline.aero.data.differentiation import midpoint_derivative
+from simplexspline.aero.variables import COEFFICIENTS, RATE_NAMES
 from simplexspline.errors import FlightDataError, InputError
 
-__all__ = ["COEFFICIENT_NAMES", "RATE_NAMES", "THRUST_COLUMNS", "aerodynamic_coefficients",
-           "angular_accelerations"]
+__all__ = ["THRUST_COLUMNS", "aerodynamic_coefficients", "angular_accelerations"]
 
-#: Columns added by :func:`aerodynamic_coefficients`.
-COEFFICIENT_NAMES: tuple[str, ...] = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
-#: Non-dimensional rates p b / 2V, q cbar / 2V, r b / 2V.
-RATE_NAMES: tuple[str, ...] = ("phat", "qhat", "rhat")
+#: The name the deprecated path ``simplexspline.aero.coefficients`` forwards: use
+#: :data:`simplexspline.aero.variables.COEFFICIENTS`.
+COEFFICIENT_NAMES = COEFFICIENTS
+#: Thrust forces [N] and moments [N m] subtracted when all six are present.
 THRUST_COLUMNS: tuple[str, ...] = ("thrust_x", "thrust_y", "thrust_z", "thrust_l", "thrust_m",
                                    "thrust_n")
 _NEEDED = ("maneuver", "t", "tas", "rho", "p", "q", "r", "ax", "ay", "az", "mass", "Ixx", "Iyy",
@@ -103,7 +103,7 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
     FlightDataError
         A needed column or metadata key is missing.
     """
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'aero' extra)
 
     meta = df.attrs if metadata is None else metadata
     for key in ("S", "b", "cbar"):
@@ -134,16 +134,15 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
     pd_, qd, rd = acc[:, 0], acc[:, 1], acc[:, 2]
     Ixx, Iyy, Izz, Ixz = col["Ixx"], col["Iyy"], col["Izz"], col["Ixz"]
     qS = 0.5 * col["rho"] * V * V * S
-    out = {
-        "CX": (m * col["ax"] - T[0]) / qS,
-        "CY": (m * col["ay"] - T[1]) / qS,
-        "CZ": (m * col["az"] - T[2]) / qS,
-        "Cl": (Ixx * pd_ - (Iyy - Izz) * q * r - Ixz * (rd + p * q) - T[3]) / (qS * b),
-        "Cm": (Iyy * qd - (Izz - Ixx) * r * p - Ixz * (r * r - p * p) - T[4]) / (qS * c),
-        "Cn": (Izz * rd - (Ixx - Iyy) * p * q - Ixz * (pd_ - q * r) - T[5]) / (qS * b),
-        "phat": p * b / (2 * V),
-        "qhat": q * c / (2 * V),
-        "rhat": r * b / (2 * V),
-        "pdot": pd_, "qdot": qd, "rdot": rd,
-    }
+    coefficients = (
+        (m * col["ax"] - T[0]) / qS,
+        (m * col["ay"] - T[1]) / qS,
+        (m * col["az"] - T[2]) / qS,
+        (Ixx * pd_ - (Iyy - Izz) * q * r - Ixz * (rd + p * q) - T[3]) / (qS * b),
+        (Iyy * qd - (Izz - Ixx) * r * p - Ixz * (r * r - p * p) - T[4]) / (qS * c),
+        (Izz * rd - (Ixx - Iyy) * p * q - Ixz * (pd_ - q * r) - T[5]) / (qS * b),
+    )
+    rates = (p * b / (2 * V), q * c / (2 * V), r * b / (2 * V))
+    out = {**dict(zip(COEFFICIENTS, coefficients)), **dict(zip(RATE_NAMES, rates)),
+           "pdot": pd_, "qdot": qd, "rdot": rd}
     return pd.DataFrame(out, index=df.index), bool(thrust)

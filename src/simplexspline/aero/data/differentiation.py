@@ -14,8 +14,8 @@ The price is amplitude attenuation at high frequency. For the defaults (m = 8, i
 16-sample window of 0.16 s at 100 Hz, degree 4) the derivative's gain is -3 dB at 7.9 Hz
 and the white-noise gain is 0.097 times that of the forward difference; m = 12 with
 degree 2 would give 2.4 Hz and 0.021 (smoother but it flattens 3211 pulses: 1.5 % relative
-RMS error in Cm on noise-free simulated data, against 0.13 % for the defaults). Near the ends of the
-record the window is shifted inside the data (one-sided fits), which keeps the degree but
+RMS error in Cm on noise-free simulated data, against 0.13 % for the defaults). Near the ends
+of the record the window is shifted inside the data (one-sided fits), which keeps the degree but
 not the zero phase.
 """
 

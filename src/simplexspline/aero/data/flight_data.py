@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from simplexspline._files import atomic_write, jsonable, write_text
 from simplexspline.errors import FlightDataError, InputError
-from simplexspline.spline.formats.model_file import atomic_write
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -288,7 +288,7 @@ def validate_flight_data(df, metadata: Mapping | None = None, *,
     FlightDataError
         Naming the offending column or metadata key.
     """
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'aero' extra)
 
     if nan not in ("warn", "raise", "ignore"):
         raise InputError(f"nan must be 'warn', 'raise' or 'ignore', got {nan!r}")
@@ -365,18 +365,6 @@ def validate_flight_data(df, metadata: Mapping | None = None, *,
     return report
 
 
-def _json_default(o):
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (set, tuple)):
-        return list(o)
-    raise TypeError(f"metadata value of type {type(o).__name__} is not JSON-serialisable")
-
-
 def sidecar_path(path: str | os.PathLike) -> Path:
     """The JSON sidecar of a CSV file: ``<file>.csv.json``."""
     p = Path(path)
@@ -411,7 +399,7 @@ def write_flight_data(df, path: str | os.PathLike, metadata: Mapping | None = No
     pathlib.Path
         The written data file.
     """
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'aero' extra)
 
     path = Path(path)
     fmt = _format(path)
@@ -426,11 +414,11 @@ def write_flight_data(df, path: str | os.PathLike, metadata: Mapping | None = No
     if not path.parent.is_dir():
         raise InputError(f"cannot write {str(path)!r}: directory {str(path.parent)!r} "
                          "does not exist")
-    encoded = {k: json.dumps(v, default=_json_default) for k, v in meta.items()}
+    encoded = {k: json.dumps(jsonable(v)) for k, v in meta.items()}
     plain = pd.DataFrame(df, copy=False)
     plain.attrs = {}
     if fmt == "parquet":
-        import pyarrow as pa
+        import pyarrow as pa  # optional dependency (the 'aero' extra)
         import pyarrow.parquet as pq
 
         table = pa.Table.from_pandas(plain, preserve_index=False)
@@ -443,9 +431,7 @@ def write_flight_data(df, path: str | os.PathLike, metadata: Mapping | None = No
         atomic_write(path, lambda tmp: pq.write_table(table, tmp, use_dictionary=labels))
     else:
         atomic_write(path, lambda tmp: plain.to_csv(tmp, index=False, float_format="%.17g"))
-        side = sidecar_path(path)
-        text = json.dumps(meta, default=_json_default, indent=1)
-        atomic_write(side, lambda tmp: Path(tmp).write_text(text))
+        write_text(sidecar_path(path), json.dumps(jsonable(meta), indent=1))
     return path
 
 
@@ -473,14 +459,14 @@ def read_flight_data(path: str | os.PathLike, *, validate: bool = True,
     FlightDataError
         If the file is missing, unreadable, or not in the schema.
     """
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'aero' extra)
 
     path = Path(path)
     fmt = _format(path)
     if not path.is_file():
         _fail(f"flight-data file {str(path)!r} does not exist")
     if fmt == "parquet":
-        import pyarrow.parquet as pq
+        import pyarrow.parquet as pq  # optional dependency (the 'aero' extra)
 
         try:
             table = pq.read_table(path)

@@ -12,6 +12,7 @@ from simplexspline.aero.derivatives.stability import (
     derivative_unit,
     derivatives,
     load_models,
+    long_table,
     reference_conditions,
 )
 
@@ -22,6 +23,7 @@ __all__ = [
     "derivative_unit",
     "derivatives",
     "load_models",
+    "long_table",
     "plot_derivative_map",
     "plot_derivatives",
     "reference_conditions",

@@ -8,7 +8,7 @@ the data support of each model) and return a matplotlib Figure (no pyplot is use
 * :func:`plot_derivative_map`: maps of derivatives over a grid of ``x`` and ``y``.
 
 Angles are shown in degrees on the axes; derivatives stay in SI units (per rad).
-Both are re-exported by :mod:`simplexspline.aero.derivatives.stability`. docs/derivatives.md.
+docs/derivatives.md.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from simplexspline.aero.modelling.structure import UNITS
+from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError
 
 __all__ = ["plot_derivative_map", "plot_derivatives"]
@@ -60,7 +60,7 @@ def _spans(x: np.ndarray, mask: np.ndarray) -> list:
 
 
 def _figure(n: int, ncols: int, fig, w: float = 3.6, h: float = 2.8):
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # optional dependency (the 'aero' extra)
 
     ncols = max(1, min(ncols, n))
     nrows = math.ceil(n / ncols)
@@ -120,7 +120,7 @@ def plot_derivatives(table, names: Sequence[str] | None = None, *, x: str = "alp
               [(val, (table[by] == val).to_numpy()) for val in np.unique(table[by])])
     fig, axes = _figure(len(names), ncols, fig)
     xunit, xf = _display(x)
-    from matplotlib import colormaps
+    from matplotlib import colormaps  # optional dependency (the 'aero' extra)
 
     cmap = colormaps["viridis"]
     xall = table[x].to_numpy(dtype=float) * xf

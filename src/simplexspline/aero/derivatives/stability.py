@@ -4,9 +4,9 @@ The partial derivatives of an :class:`~simplexspline.aero.modelling.model.AeroMo
 B-form gradient of the spline in the unit box, times the inverse spans of the variable
 scaling (the chain rule through :class:`~simplexspline.aero.modelling.structure.Scaling`). This
 module turns them into the classical derivatives (``Cm_alpha``, ``Cl_beta``, ``Cn_dr``,
-``Cm_q`` ...) at any flight conditions, as a table. The plots across the envelope,
-:func:`plot_derivatives` and :func:`plot_derivative_map`, live in
-:mod:`~simplexspline.aero.derivatives.plots` and are re-exported here.
+``Cm_q`` ...) at any flight conditions, as a table (:func:`derivatives`, wide or long, see
+:func:`long_table`). The plots across the envelope are in
+:mod:`~simplexspline.aero.derivatives.plots`.
 
 Conventions (docs/derivatives.md):
 
@@ -25,21 +25,19 @@ Conventions (docs/derivatives.md):
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from simplexspline.aero.derivatives.plots import (  # noqa: F401 - re-exported
-    _display,
-    _figure,
-    _names,
-    _spans,
     plot_derivative_map,
     plot_derivatives,
 )
 from simplexspline.aero.modelling.model import AeroModel
-from simplexspline.aero.modelling.structure import CANDIDATE_VARIABLES, COEFFICIENTS, UNITS
+from simplexspline.aero.variables import CANDIDATE_VARIABLES, COEFFICIENTS, UNITS
 from simplexspline.errors import InputError, ModelFileError, OutsideDomainError
+from simplexspline.spline.geometry.outside import SPLINE_POLICIES
 
 __all__ = [
     "RATE_CONVENTIONS",
@@ -48,8 +46,7 @@ __all__ = [
     "derivative_unit",
     "derivatives",
     "load_models",
-    "plot_derivative_map",
-    "plot_derivatives",
+    "long_table",
     "reference_conditions",
 ]
 
@@ -66,7 +63,6 @@ _LENGTH = {"p": "b", "q": "cbar", "r": "b"}
 _ZERO = ("beta", "da", "dr", "phat", "qhat", "rhat", "p", "q", "r")
 #: Derivative name suffix of a variable (default: the variable's name).
 _SUFFIX = {"phat": "p", "qhat": "q", "rhat": "r", "p": "p_dim", "q": "q_dim", "r": "r_dim"}
-_OUTSIDE = ("nan", "extrapolate", "raise")
 
 
 # ---------------------------------------------------------------------------- names
@@ -276,7 +272,7 @@ def condition_grid(models, axes: Mapping, reference: Mapping | None = None):
     pandas.DataFrame
         One row per grid point, columns: the axes, then every other model variable.
     """
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'aero' extra)
 
     models = _as_models(models)
     ref = reference_conditions(models) if reference is None else dict(reference)
@@ -296,7 +292,7 @@ def condition_grid(models, axes: Mapping, reference: Mapping | None = None):
 
 
 def _conditions(models: Mapping, at, reference: Mapping | None):
-    import pandas as pd
+    import pandas as pd  # optional dependency (the 'aero' extra)
 
     given = {str(k): float(v) for k, v in (reference or {}).items()}
     ref = {**reference_conditions(models), **given}
@@ -366,82 +362,137 @@ def derivatives(models, at=None, *, wrt: Sequence[str] | None = None,
     OutsideDomainError
         With ``outside='raise'``: conditions outside a model's domain.
     """
-    import pandas as pd
-
     models = _as_models(models)
-    if rates not in RATE_CONVENTIONS:
-        raise InputError(f"rates must be one of {RATE_CONVENTIONS}, got {rates!r}")
-    if outside not in _OUTSIDE:
-        raise InputError(f"outside must be one of {_OUTSIDE}, got {outside!r} (clamped "
-                         "inputs would give the derivative at another condition)")
-    if layout not in ("wide", "long"):
-        raise InputError(f"layout must be 'wide' or 'long', got {layout!r}")
+    _check_options(rates, outside, layout)
     known = _variables(models)
-    if wrt is None:
-        out_vars = list(dict.fromkeys(_axis(v, rates) for v in known))
-    else:
-        if isinstance(wrt, str):
-            wrt = [w.strip() for w in wrt.split(",") if w.strip()]
-        bad = [w for w in wrt if (w not in UNITS or w in COEFFICIENTS) and w not in known]
-        if bad or not wrt:
-            raise InputError(f"unknown variable(s) {bad or '(none given)'} in wrt; the "
-                             f"models depend on {known}")
-        out_vars = list(dict.fromkeys(_axis(w, rates) for w in wrt))
+    out_vars = _output_variables(known, wrt, rates)
     cond, ref = _conditions(models, at, reference)
     geo = _geometry(models, geometry)
-    n = len(cond)
-    cols: dict = {}
-    info: dict = {}
-    inside: dict = {}
-    extra: dict = {}    # model inputs the conditions did not give (reference, converted)
-    support: dict = {}  # identification samples in the simplex holding each condition
-    for c, model in models.items():
-        x, speed = _inputs(model, cond, ref, geo, out_vars)
-        for i, v in enumerate(model.variables):
-            if v not in cond.columns:
-                extra.setdefault(v, x[:, i])
-        sid = model.locate(x)
-        ok = sid >= 0
-        counts = np.asarray(model.provenance.get("counts", ()), dtype=np.int64)
-        if counts.shape == (model.spline.triangulation.nsimplex,):
-            support[c] = np.where(ok, counts[np.maximum(sid, 0)], 0)
-        if outside == "raise" and not ok.all():
-            bad = np.nonzero(~ok)[0]
-            raise OutsideDomainError(
-                f"{len(bad)} of {n} conditions lie outside the domain of the "
-                f"{model.structure.label()} model (first rows {bad[:5].tolist()}); use "
-                "outside='nan' or 'extrapolate'", bad)
-        g = model.gradient(x, outside="extrapolate" if outside == "extrapolate" else "nan")
-        defined = np.all(np.isfinite(g), axis=1)
-        inside[c] = ok
-        for w in out_vars:
-            name = derivative_name(c, w)
-            val = np.where(defined, 0.0, np.nan)
-            used = []
-            for i, v in enumerate(model.variables):
-                if _same_axis(v, w):
-                    val = val + g[:, i] * _factor(v, w, speed, geo, c)
-                    used.append(v)
-            cols[name] = val
-            info[name] = {"coefficient": c, "variable": w, "unit": derivative_unit(w),
-                          "in_model": bool(used), "model_variables": used}
-    if extra:
-        cond = cond.assign(**{k: v for k, v in extra.items()})
-    cond_cols = [k for k in cond.columns if k in set(known) | set(out_vars) | {"tas"}
-                 | (set(at) if isinstance(at, Mapping) else set())]
-    table = pd.concat([cond[cond_cols].reset_index(drop=True),
-                       pd.DataFrame(cols),
-                       pd.DataFrame({f"inside_{c}": v for c, v in inside.items()}),
-                       pd.DataFrame({f"samples_{c}": v for c, v in support.items()},
-                                    index=range(n))],
-                      axis=1)
-    table.index = cond.index
-    table.attrs = {"derivatives": info, "rates": rates, "outside": outside,
-                   "reference": ref, "geometry": geo,
+    parts = {c: _model_derivatives(model, cond, ref, geo, out_vars, outside)
+             for c, model in models.items()}
+    shown = set(known) | set(out_vars) | {"tas"} | (set(at) if isinstance(at, Mapping) else set())
+    table, cond_cols = _assemble(cond, parts, shown)
+    table.attrs = {"derivatives": {k: v for p in parts.values() for k, v in p.info.items()},
+                   "rates": rates, "outside": outside, "reference": ref, "geometry": geo,
                    "models": {c: m.structure.label() for c, m in models.items()},
                    "variables": {c: list(m.variables) for c, m in models.items()},
                    "nbasis": {c: m.structure.nbasis for c, m in models.items()}}
-    return table if layout == "wide" else _long(table, cond_cols)
+    return table if layout == "wide" else long_table(table, cond_cols)
+
+
+def _check_options(rates: str, outside: str, layout: str) -> None:
+    if rates not in RATE_CONVENTIONS:
+        raise InputError(f"rates must be one of {RATE_CONVENTIONS}, got {rates!r}")
+    if outside not in SPLINE_POLICIES:
+        raise InputError(f"outside must be one of {SPLINE_POLICIES}, got {outside!r} "
+                         "(clamped inputs would give the derivative at another condition)")
+    if layout not in ("wide", "long"):
+        raise InputError(f"layout must be 'wide' or 'long', got {layout!r}")
+
+
+def _output_variables(known: Sequence[str], wrt, rates: str) -> list:
+    """The variables to differentiate with respect to, as reported under ``rates``."""
+    if wrt is None:
+        return list(dict.fromkeys(_axis(v, rates) for v in known))
+    if isinstance(wrt, str):
+        wrt = [w.strip() for w in wrt.split(",") if w.strip()]
+    bad = [w for w in wrt if (w not in UNITS or w in COEFFICIENTS) and w not in known]
+    if bad or not wrt:
+        raise InputError(f"unknown variable(s) {bad or '(none given)'} in wrt; the "
+                         f"models depend on {known}")
+    return list(dict.fromkeys(_axis(w, rates) for w in wrt))
+
+
+@dataclass
+class _ModelDerivatives:
+    """The derivatives of one model at N conditions.
+
+    Attributes
+    ----------
+    columns : dict of str to ndarray, shape (N,)
+        Derivative name -> values (SI units of :func:`derivative_unit`).
+    info : dict of str to dict
+        Derivative name -> coefficient, variable, unit, in_model, model_variables.
+    inside : ndarray of bool, shape (N,)
+        The condition lies in the model's domain.
+    support : ndarray of int64, shape (N,), or None
+        Identification samples in the simplex holding each condition (None when the
+        model's provenance does not count them).
+    inputs : dict of str to ndarray, shape (N,)
+        Model inputs the conditions did not give (reference values, converted rates).
+    """
+
+    columns: dict
+    info: dict
+    inside: np.ndarray
+    support: np.ndarray | None
+    inputs: dict
+
+
+def _model_derivatives(model: AeroModel, cond, ref: Mapping, geo: Mapping,
+                       out_vars: Sequence[str], outside: str) -> _ModelDerivatives:
+    """Locate the conditions in ``model``, take its gradient, scale it to ``out_vars``."""
+    x, speed = _inputs(model, cond, ref, geo, out_vars)
+    filled = {v: x[:, i] for i, v in enumerate(model.variables) if v not in cond.columns}
+    sid = model.locate(x)
+    ok = sid >= 0
+    counts = np.asarray(model.provenance.get("counts", ()), dtype=np.int64)
+    support = (np.where(ok, counts[np.maximum(sid, 0)], 0)
+               if counts.shape == (model.spline.triangulation.nsimplex,) else None)
+    if outside == "raise" and not ok.all():
+        bad = np.nonzero(~ok)[0]
+        raise OutsideDomainError(
+            f"{len(bad)} of {len(cond)} conditions lie outside the domain of the "
+            f"{model.structure.label()} model (first rows {bad[:5].tolist()}); use "
+            "outside='nan' or 'extrapolate'", bad)
+    g = model.gradient(x, outside="extrapolate" if outside == "extrapolate" else "nan")
+    columns, info = _scaled(model, g, out_vars, speed, geo)
+    return _ModelDerivatives(columns, info, ok, support, filled)
+
+
+def _scaled(model: AeroModel, g: np.ndarray, out_vars: Sequence[str], speed, geo: Mapping):
+    """The model's gradient ``g`` (N, n) as derivatives with respect to ``out_vars``: the
+    columns of every model variable on the same axis, times d variable / d output variable
+    (0 where the model is defined and depends on no such variable)."""
+    c = model.coefficient
+    defined = np.all(np.isfinite(g), axis=1)
+    columns: dict = {}
+    info: dict = {}
+    for w in out_vars:
+        name = derivative_name(c, w)
+        val = np.where(defined, 0.0, np.nan)
+        used = []
+        for i, v in enumerate(model.variables):
+            if _same_axis(v, w):
+                val = val + g[:, i] * _factor(v, w, speed, geo, c)
+                used.append(v)
+        columns[name] = val
+        info[name] = {"coefficient": c, "variable": w, "unit": derivative_unit(w),
+                      "in_model": bool(used), "model_variables": used}
+    return columns, info
+
+
+def _assemble(cond, parts: Mapping, shown: set):
+    """The wide table (without attrs) and its condition columns: the conditions (those
+    among ``shown``, with the model inputs they lacked), the derivatives, ``inside_<C>`` and
+    ``samples_<C>``."""
+    import pandas as pd  # optional dependency (the 'aero' extra)
+
+    extra: dict = {}
+    for p in parts.values():
+        for k, v in p.inputs.items():
+            extra.setdefault(k, v)
+    if extra:
+        cond = cond.assign(**extra)
+    cond_cols = [k for k in cond.columns if k in shown]
+    table = pd.concat([cond[cond_cols].reset_index(drop=True),
+                       pd.DataFrame({k: v for p in parts.values() for k, v in p.columns.items()}),
+                       pd.DataFrame({f"inside_{c}": p.inside for c, p in parts.items()}),
+                       pd.DataFrame({f"samples_{c}": p.support for c, p in parts.items()
+                                     if p.support is not None}, index=range(len(cond)))],
+                      axis=1)
+    table.index = cond.index
+    return table, cond_cols
 
 
 def _geometry(models: Mapping, geometry: Mapping | None) -> dict:
@@ -521,13 +572,29 @@ def _factor(v: str, w: str, speed, geo: Mapping, coefficient: str):
     return k if nondim else 1.0 / k    # dxhat/dx = k ; dx/dxhat = 1/k
 
 
-def _long(table, cond_cols: list):
-    import pandas as pd
+def long_table(table, condition_columns: Sequence[str]):
+    """The long layout of a wide derivative table: one row per condition and derivative.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A wide table of :func:`derivatives` (N conditions, with its ``attrs``).
+    condition_columns : sequence of str
+        The columns of ``table`` that describe the conditions (kept in every row).
+
+    Returns
+    -------
+    pandas.DataFrame
+        N x (number of derivatives) rows, columns ``point, <conditions>, coefficient,
+        variable, derivative, value, unit, in_model, inside`` (and ``samples`` when the
+        table has them); the same ``attrs``.
+    """
+    import pandas as pd  # optional dependency (the 'aero' extra)
 
     info = table.attrs["derivatives"]
     parts = []
     for name, d in info.items():
-        part = table[cond_cols].copy()
+        part = table[list(condition_columns)].copy()
         part.insert(0, "point", np.arange(len(table)))
         part["coefficient"] = d["coefficient"]
         part["variable"] = d["variable"]

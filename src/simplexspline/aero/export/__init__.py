@@ -6,6 +6,8 @@
 
 from simplexspline.aero.export.c_code import generate_aero_c, load_exportable
 from simplexspline.aero.export.lookup_tables import (
+    JSBSIM_PROPERTIES,
+    TABLE_FORMAT,
     LookupTable,
     lookup_table,
     model_variables,
@@ -13,6 +15,8 @@ from simplexspline.aero.export.lookup_tables import (
 )
 
 __all__ = [
+    "JSBSIM_PROPERTIES",
+    "TABLE_FORMAT",
     "LookupTable",
     "generate_aero_c",
     "load_exportable",

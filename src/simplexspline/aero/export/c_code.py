@@ -1,15 +1,14 @@
-"""Export identified aerodynamic models: C code with named physical inputs, lookup tables.
+"""C code of identified aerodynamic models, with named physical inputs.
 
-* :func:`generate_aero_c`: C99 code for an :class:`~simplexspline.aero.modelling.model.AeroModel`
-  (``double cz_eval(double alpha, double de, double mach)`` and array versions), with the
-  variable scaling of :class:`~simplexspline.aero.modelling.structure.Scaling` applied inside and the
-  gradient in physical units. It evaluates exactly what :meth:`AeroModel.predict` and
-  :meth:`AeroModel.gradient` do, outside policies included (built on
-  :mod:`simplexspline.spline.formats.c_export`).
-* :func:`lookup_table`: the model on a user grid of breakpoints, saved as a CSV or npz
-  n-D table with a JSON sidecar, or as a JSBSim ``<function>``/``<table>`` snippet
-  (1-3 varying variables). They live in :mod:`simplexspline.aero.export.lookup_tables` and are
-  re-exported here. See docs/export.md.
+:func:`generate_aero_c` writes C99 code for an
+:class:`~simplexspline.aero.modelling.model.AeroModel` (``double cz_eval(double alpha, double
+de, double mach)`` and array versions), with the variable scaling of
+:class:`~simplexspline.aero.modelling.structure.Scaling` applied inside and the gradient in
+physical units. It evaluates exactly what :meth:`AeroModel.predict` and
+:meth:`AeroModel.gradient` do, outside policies included (built on
+:mod:`simplexspline.spline.formats.c_export`). :func:`load_exportable` reads a model file
+as an AeroModel or a plain spline. Lookup tables are in
+:mod:`simplexspline.aero.export.lookup_tables`. See docs/export.md.
 """
 
 from __future__ import annotations
@@ -20,30 +19,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from simplexspline._version import __version__
+from simplexspline.aero.export.lookup_tables import provenance_summary
 from simplexspline.aero.modelling.model import AeroModel
-from simplexspline.aero.modelling.structure import UNITS
-from simplexspline.aero.export.lookup_tables import (  # noqa: F401 - re-exported
-    JSBSIM_PROPERTIES,
-    MAX_TABLE_POINTS,
-    TABLE_FORMAT,
-    TABLE_VERSION,
-    LookupTable,
-    _breakpoints,
-    _bytes_writer,
-    _f,
-    _json_text,
-    _outside_note,
-    _prop,
-    _summary,
-    _table2d,
-    _text_writer,
-    lookup_table,
-    model_variables,
-    parse_grid,
-)
+from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError
 from simplexspline.spline.formats.c_export import (
-    POLICIES,
     RESERVED,
     CSource,
     assemble,
@@ -52,17 +33,16 @@ from simplexspline.spline.formats.c_export import (
     c_core,
     c_identifier,
 )
+from simplexspline.spline.formats.model_file import load_spline
 from simplexspline.spline.function import SimplexSpline
+from simplexspline.spline.geometry.outside import EXPORT_POLICIES, check_policy
 
-__all__ = ["JSBSIM_PROPERTIES", "LookupTable", "TABLE_FORMAT", "generate_aero_c",
-           "load_exportable", "lookup_table", "model_variables", "parse_grid"]
+__all__ = ["generate_aero_c", "load_exportable"]
 
 
 def load_exportable(path) -> AeroModel | SimplexSpline:
     """An :class:`AeroModel` when the model file carries the aerodynamic description,
     else the plain :class:`SimplexSpline`."""
-    from simplexspline.spline.formats.model_file import load_spline
-
     spline = load_spline(path)
     if isinstance(spline.metadata.get("aero"), dict):
         return AeroModel.load(path)
@@ -73,8 +53,14 @@ def load_exportable(path) -> AeroModel | SimplexSpline:
 
 
 # ---------------------------------------------------------------------- C code
-def _parameter_names(variables: Sequence[str]) -> list[str]:
-    """C parameter names for the variables (sanitised, unique, not reserved)."""
+def parameter_names(variables: Sequence[str]) -> list[str]:
+    """C parameter names for the variables (sanitised, unique, not reserved).
+
+    Examples
+    --------
+    >>> parameter_names(["alpha", "a-b", "a_b", "int"])
+    ['alpha', 'a_b', 'a_b_', 'int_']
+    """
     out: list[str] = []
     for v in variables:
         name = re.sub(r"[^A-Za-z0-9_]", "_", str(v)) or "v"
@@ -89,8 +75,6 @@ def _parameter_names(variables: Sequence[str]) -> list[str]:
 
 
 def _model_text(model: AeroModel, outside: str) -> str:
-    from simplexspline._version import __version__
-
     s = model.structure
     spline = model.spline
     lines = [
@@ -112,7 +96,7 @@ def _model_text(model: AeroModel, outside: str) -> str:
         "",
         "Provenance:",
     ]
-    for k, v in _summary(model.provenance).items():
+    for k, v in provenance_summary(model.provenance).items():
         lines.append(f"  {k}: {json.dumps(v, default=str)}")
     return "\n".join(lines)
 
@@ -268,13 +252,12 @@ def generate_aero_c(model: AeroModel, prefix: str | None = None, *, outside: str
         raise InputError(f"C export covers plain spline models with affine scaling; "
                          f"{model.structure.label()} has multipliers or breakpoints: export "
                          "it as a lookup table (--table) instead")
-    if outside not in POLICIES:
-        raise InputError(f"outside must be one of {POLICIES}, got {outside!r}")
+    check_policy(outside, EXPORT_POLICIES)
     prefix = c_identifier(prefix if prefix is not None else
                           re.sub(r"[^a-z0-9_]", "_", model.coefficient.lower()))
     tag = f"{prefix}_impl"
     n = len(model.variables)
-    params = _parameter_names(model.variables)
+    params = parameter_names(model.variables)
     upper = prefix.upper()
     span = model.scaling.span
     if not np.all(span > 0):

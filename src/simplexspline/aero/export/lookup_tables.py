@@ -9,8 +9,7 @@ with an outside policy, into a :class:`LookupTable`. :meth:`LookupTable.save` wr
   properties from :data:`JSBSIM_PROPERTIES`), see :meth:`LookupTable.to_jsbsim`.
 
 :func:`parse_grid` reads the command line's grid specifications and
-:func:`model_variables` names a model's inputs. Everything here is re-exported by
-:mod:`simplexspline.aero.export.c_code`. See docs/export.md.
+:func:`model_variables` names a model's inputs. See docs/export.md.
 """
 
 from __future__ import annotations
@@ -26,15 +25,17 @@ from xml.sax.saxutils import escape
 
 import numpy as np
 
+from simplexspline._files import write_bytes, write_text
+from simplexspline._version import __version__
 from simplexspline.aero.modelling.model import AeroModel
-from simplexspline.aero.modelling.structure import UNITS
+from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError
-from simplexspline.spline.formats.c_export import POLICIES, reference_evaluate
-from simplexspline.spline.formats.model_file import atomic_write
+from simplexspline.spline.formats.c_export import reference_evaluate
 from simplexspline.spline.function import SimplexSpline
+from simplexspline.spline.geometry.outside import EXPORT_POLICIES, check_policy
 
-__all__ = ["JSBSIM_PROPERTIES", "TABLE_FORMAT", "LookupTable", "lookup_table",
-           "model_variables", "parse_grid"]
+__all__ = ["JSBSIM_PROPERTIES", "MAX_TABLE_POINTS", "TABLE_FORMAT", "TABLE_VERSION",
+           "LookupTable", "lookup_table", "model_variables", "parse_grid"]
 
 TABLE_FORMAT = "simplexspline.table"
 TABLE_VERSION = 1
@@ -53,14 +54,15 @@ JSBSIM_PROPERTIES = {
 }
 
 
-def _summary(obj, depth: int = 0):
-    """Provenance for a comment: long lists and deep nesting summarised."""
+def provenance_summary(obj):
+    """A model's provenance (JSON-like) shortened for a comment or a sidecar: lists of
+    more than 8 values become ``'<n values>'``; mappings get string keys."""
     if isinstance(obj, Mapping):
-        return {str(k): _summary(v, depth + 1) for k, v in obj.items()}
+        return {str(k): provenance_summary(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         if len(obj) > 8:
             return f"<{len(obj)} values>"
-        return [_summary(v, depth + 1) for v in obj]
+        return [provenance_summary(v) for v in obj]
     return obj
 
 
@@ -149,8 +151,6 @@ class LookupTable:
 
     def header(self) -> dict:
         """The JSON description (sidecar of CSV/npz tables)."""
-        from simplexspline._version import __version__
-
         nout = int(self.outside.sum())
         return {
             "format": TABLE_FORMAT, "version": TABLE_VERSION,
@@ -180,11 +180,11 @@ class LookupTable:
             raise InputError(f"directory {str(path.parent)!r} does not exist")
         if suffix == ".xml":
             text = self.to_jsbsim(properties=properties, function_name=function_name)
-            atomic_write(path, _text_writer(text))
+            write_text(path, text)
             return [path]
         header = self.header()
         if suffix == ".csv":
-            atomic_write(path, _text_writer(self._csv()))
+            write_text(path, self._csv())
         else:
             arrays = {"values": self.values, "outside": self.outside,
                       "header": np.array(json.dumps(header, allow_nan=False))}
@@ -192,9 +192,9 @@ class LookupTable:
                 arrays[f"breakpoints_{k}"] = b
             buf = io.BytesIO()
             np.savez(buf, **arrays)
-            atomic_write(path, _bytes_writer(buf.getvalue()))
+            write_bytes(path, buf.getvalue())
         sidecar = path.with_name(path.name + ".json")
-        atomic_write(sidecar, _text_writer(_json_text(header)))
+        write_text(sidecar, _json_text(header))
         return [path, sidecar]
 
     def _csv(self) -> str:
@@ -222,8 +222,6 @@ class LookupTable:
         function_name : str, optional
             Default ``aero/coefficient/<output>``.
         """
-        from simplexspline._version import __version__
-
         if np.any(np.isnan(self.values)):
             raise InputError(
                 f"{int(np.isnan(self.values).sum())} table values are NaN (grid points "
@@ -322,20 +320,6 @@ def _outside_note(policy: str, nout: int, total: int) -> str:
             + (f"; {what[policy]}" if nout else ""))
 
 
-def _text_writer(text: str):
-    def write(tmp):
-        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-    return write
-
-
-def _bytes_writer(data: bytes):
-    def write(tmp):
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-    return write
-
-
 def model_variables(model) -> tuple:
     """Input names of an AeroModel, or of a SimplexSpline (``metadata['variables']`` when
     it names every input, else ``x0, x1, ...``)."""
@@ -373,7 +357,8 @@ def lookup_table(model, grid, *, outside: str | None = None) -> LookupTable:
         policy = outside or "clamp"
         output = model.coefficient
         units = {v: UNITS.get(v, "?") for v in (*variables, output)}
-        info = {"label": model.structure.label(), "provenance": _summary(model.provenance)}
+        info = {"label": model.structure.label(),
+                "provenance": provenance_summary(model.provenance)}
     elif isinstance(model, SimplexSpline):
         variables = model_variables(model)
         policy = outside or "nan"
@@ -383,8 +368,7 @@ def lookup_table(model, grid, *, outside: str | None = None) -> LookupTable:
     else:
         raise InputError(f"lookup_table needs an AeroModel or SimplexSpline, got "
                          f"{type(model).__name__}")
-    if policy not in POLICIES:
-        raise InputError(f"outside must be one of {POLICIES}, got {policy!r}")
+    check_policy(policy, EXPORT_POLICIES)
     if isinstance(grid, Mapping):
         extra = sorted(set(grid) - set(variables))
         missing = [v for v in variables if v not in grid]

@@ -1,8 +1,8 @@
 """Iterated extended Kalman filter and Rauch-Tung-Striebel smoother for one maneuver.
 
-Private numeric kernels on plain arrays; the state and measurement equations are in
-:mod:`simplexspline.aero.reconstruction.kinematics`, the per-maneuver driver (initialisation, checks,
-outputs) in :mod:`simplexspline.aero.reconstruction.reconstruct`.
+Numeric kernels on plain arrays; the state and measurement equations are in
+:mod:`simplexspline.aero.reconstruction.kinematics`, the per-maneuver driver
+(initialisation, checks, outputs) in :mod:`simplexspline.aero.reconstruction.reconstruct`.
 
 Measurement update (iterated, Gauss-Newton on the measurement equation; Jazwinski 1970)::
 
@@ -23,15 +23,82 @@ through G (the input columns of the transition matrix).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg.lapack import dposv
 
-from simplexspline.aero.reconstruction.kinematics import NX, NZ, PSI_MEAS, EarthModel, measure, propagate
+from simplexspline.aero.reconstruction.kinematics import (
+    NX, NZ, PSI_MEAS, EarthModel, measure, propagate,
+)
 
-__all__ = ["run_filter", "rts_smooth"]
+__all__ = ["FilterNoise", "IteratedUpdate", "StateEstimate", "run_filter", "rts_smooth"]
 
 _TWO_PI = 2.0 * math.pi
+_EYE = np.eye(NX)
+
+
+@dataclass(frozen=True)
+class StateEstimate:
+    """A Gaussian state estimate.
+
+    Attributes
+    ----------
+    x : (18,) ndarray
+        Mean (:data:`~simplexspline.aero.reconstruction.kinematics.STATE_NAMES`).
+    P : (18, 18) ndarray
+        Covariance.
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+
+
+@dataclass(frozen=True)
+class FilterNoise:
+    """The filter's noise model.
+
+    Attributes
+    ----------
+    input_std : (6,) ndarray
+        IMU white-noise standard deviations per sample (``ax, ay, az`` [m/s^2], ``p, q, r``
+        [rad/s]).
+    process_var : (18,) ndarray
+        Additional process-noise variances per step (model errors).
+    measurement_std : (12,) ndarray
+        Measurement-noise standard deviations.
+    """
+
+    input_std: np.ndarray
+    process_var: np.ndarray
+    measurement_std: np.ndarray
+
+
+@dataclass(frozen=True)
+class IteratedUpdate:
+    """Stopping rule of the iterated measurement update.
+
+    Attributes
+    ----------
+    tol : float
+        The next iteration's estimated state change, in predicted sigmas, below which the
+        iteration stops.
+    max_iter : int
+        Maximum number of gain computations of one update.
+    """
+
+    tol: float = 1e-3
+    max_iter: int = 10
+
+
+class _Measured(NamedTuple):
+    """The measured part of one sample: values, their noise covariance, the heading row."""
+
+    z: np.ndarray            #: (m,) the finite measurements
+    R: np.ndarray            #: (m, m) their noise covariance
+    sel: np.ndarray | None   #: (m,) their rows of the full measurement vector; None: all
+    psi_j: int               #: row of the heading in ``z`` (-1: not measured)
 
 
 def _wrap(res: np.ndarray, j: int) -> np.ndarray:
@@ -41,38 +108,91 @@ def _wrap(res: np.ndarray, j: int) -> np.ndarray:
     return res
 
 
-def run_filter(x0: np.ndarray, P0: np.ndarray, u: np.ndarray, z: np.ndarray, dt: float,
-               g: np.ndarray, earth: EarthModel, sigma_u: np.ndarray, q_model: np.ndarray,
-               r_meas: np.ndarray, *, tol: float = 1e-3, max_iter: int = 10) -> dict:
+def _measured(zk: np.ndarray, finite: np.ndarray, complete: bool, R_full: np.ndarray
+              ) -> _Measured:
+    """The finite measurements of one sample ``zk`` (12,) (``complete``: all finite)."""
+    if complete:
+        return _Measured(zk, R_full, None, PSI_MEAS)
+    sel = np.flatnonzero(finite)
+    j = np.flatnonzero(sel == PSI_MEAS)
+    return _Measured(zk[sel], R_full[np.ix_(sel, sel)], sel, int(j[0]) if j.size else -1)
+
+
+def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarray,
+                     iteration: IteratedUpdate, sample: int):
+    """Iterated measurement update of the prediction ``(x, P)`` (see the module docstring).
+
+    ``H`` (12, 18) is scratch space for the measurement Jacobian. Returns the updated
+    state (18,) and covariance (18, 18), the number of gains computed and the innovation
+    of the prediction with its predicted variances ((m,) each).
+    """
+    sel, R, psi_j = meas.sel, meas.R, meas.psi_j
+    sig = np.sqrt(P.diagonal())
+    xi = x
+    it = 0
+    while True:
+        h = measure(xi, H)
+        Hs = H if sel is None else H[sel]
+        hs = h if sel is None else h[sel]
+        res = _wrap(meas.z - hs, psi_j)
+        PHt = P @ Hs.T
+        S = Hs @ PHt + R
+        if it == 0:
+            innovation = (res, S.diagonal().copy())
+        _, Kt, info = dposv(S, PHt.T)       # S symmetric positive definite
+        if info != 0:
+            raise np.linalg.LinAlgError(
+                f"innovation covariance not positive definite at sample {sample}")
+        K = Kt.T
+        x_new = x + K @ (res - Hs @ (x - xi))
+        it += 1
+        # stopping criterion: the change the next iteration would make, in predicted
+        # sigmas. It is K (h(xi) + H (x_new - xi) - h(x_new)) to first order (the
+        # next relinearisation only corrects the linearisation error at x_new),
+        # estimated with the current gain: no new gain unless it is needed.
+        hn = measure(x_new, None)
+        lin_err = hs + Hs @ (x_new - xi) - (hn if sel is None else hn[sel])
+        step = np.max(np.abs(K @ _wrap(lin_err, psi_j)) / sig)
+        xi = x_new
+        if step < iteration.tol or it >= iteration.max_iter:
+            break
+    IKH = _EYE - K @ Hs
+    return xi, IKH @ P @ IKH.T + K @ R @ K.T, it, innovation
+
+
+def _predict(x: np.ndarray, P: np.ndarray, uk: np.ndarray, dt: float, gk: float,
+             earth: EarthModel, F: np.ndarray, Qm: np.ndarray, var_u: np.ndarray):
+    """Time update of ``(x, P)`` over one step; writes the transition matrix into ``F``."""
+    x = propagate(x, uk, dt, gk, earth, F)
+    G = F[:9, 9:15]
+    P = F @ P @ F.T + Qm
+    P[:9, :9] += (G * var_u) @ G.T
+    return x, P
+
+
+def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
+               g: np.ndarray, earth: EarthModel, noise: FilterNoise,
+               iteration: IteratedUpdate = IteratedUpdate()) -> dict:
     """Forward pass of the iterated extended Kalman filter.
 
     Parameters
     ----------
-    x0 : (18,) ndarray
-        Initial state estimate.
-    P0 : (18, 18) ndarray
-        Its covariance.
+    initial : StateEstimate
+        Initial state estimate (18,) and its covariance (18, 18).
     u : (n, 6) ndarray
         Measured IMU inputs (``ax, ay, az`` [m/s^2], ``p, q, r`` [rad/s]); finite.
     z : (n, 12) ndarray
-        Measurements (:data:`~simplexspline.aero.reconstruction.kinematics.MEASUREMENT_NAMES`); NaN marks a
-        missing sample, which is skipped.
+        Measurements (:data:`~simplexspline.aero.reconstruction.kinematics.MEASUREMENT_NAMES`);
+        NaN marks a missing sample, which is skipped.
     dt : float
         Sample interval [s].
     g : (n,) ndarray
         Gravity [m/s^2] per sample.
     earth : EarthModel
-    sigma_u : (6,) ndarray
-        IMU white-noise standard deviations per sample.
-    q_model : (18,) ndarray
-        Additional process-noise variances per step (model errors).
-    r_meas : (12,) ndarray
-        Measurement-noise standard deviations.
-    tol : float
-        Stopping criterion of the iterated update (the next iteration's estimated state
-        change, in predicted sigmas).
-    max_iter : int
-        Maximum number of gain computations of one update.
+    noise : FilterNoise
+        IMU, process and measurement noise.
+    iteration : IteratedUpdate
+        Stopping rule of the iterated measurement update.
 
     Returns
     -------
@@ -93,78 +213,26 @@ def run_filter(x0: np.ndarray, P0: np.ndarray, u: np.ndarray, z: np.ndarray, dt:
     innov = np.full((n, NZ), np.nan)
     innov_var = np.full((n, NZ), np.nan)
     iters = np.zeros(n, dtype=np.int64)
-    R_full = np.diag(r_meas ** 2)
-    var_u = sigma_u ** 2
-    eye = np.eye(NX)
+    R_full = np.diag(noise.measurement_std ** 2)
+    var_u = noise.input_std ** 2
+    Qm = np.diag(noise.process_var)
     H = np.zeros((NZ, NX))
     finite = np.isfinite(z)
     all_ok = finite.all(axis=1)
-    x = np.array(x0, dtype=float)
-    P = np.array(P0, dtype=float)
-    Qm = np.diag(q_model)
+    x = np.array(initial.x, dtype=float)
+    P = np.array(initial.P, dtype=float)
     for k in range(n):
         x_pred[k] = x
         P_pred[k] = P
-        # ---- iterated measurement update
-        zk = z[k]
-        if all_ok[k]:
-            sel = None
-            zz = zk
-            R = R_full
-            psi_j = PSI_MEAS
-        else:
-            sel = np.flatnonzero(finite[k])
-            zz = zk[sel]
-            R = R_full[np.ix_(sel, sel)]
-            j = np.flatnonzero(sel == PSI_MEAS)
-            psi_j = int(j[0]) if j.size else -1
-        if zz.size:
-            sig = np.sqrt(P.diagonal())
-            xi = x
-            it = 0
-            while True:
-                h = measure(xi, H)
-                Hs = H if sel is None else H[sel]
-                hs = h if sel is None else h[sel]
-                res = _wrap(zz - hs, psi_j)
-                PHt = P @ Hs.T
-                S = Hs @ PHt + R
-                if it == 0:
-                    if sel is None:
-                        innov[k] = res
-                        innov_var[k] = S.diagonal()
-                    else:
-                        innov[k, sel] = res
-                        innov_var[k, sel] = S.diagonal()
-                _, Kt, info = dposv(S, PHt.T)       # S symmetric positive definite
-                if info != 0:
-                    raise np.linalg.LinAlgError(
-                        f"innovation covariance not positive definite at sample {k}")
-                K = Kt.T
-                x_new = x + K @ (res - Hs @ (x - xi))
-                it += 1
-                # stopping criterion: the change the next iteration would make, in predicted
-                # sigmas. It is K (h(xi) + H (x_new - xi) - h(x_new)) to first order (the
-                # next relinearisation only corrects the linearisation error at x_new),
-                # estimated with the current gain: no new gain unless it is needed.
-                hn = measure(x_new, None)
-                lin_err = hs + Hs @ (x_new - xi) - (hn if sel is None else hn[sel])
-                step = np.max(np.abs(K @ _wrap(lin_err, psi_j)) / sig)
-                xi = x_new
-                if step < tol or it >= max_iter:
-                    break
-            iters[k] = it
-            IKH = eye - K @ Hs
-            P = IKH @ P @ IKH.T + K @ R @ K.T
-            x = xi
+        meas = _measured(z[k], finite[k], all_ok[k], R_full)
+        if meas.z.size:
+            x, P, iters[k], (res, res_var) = _iterated_update(x, P, meas, H, iteration, k)
+            cols = slice(None) if meas.sel is None else meas.sel
+            innov[k, cols] = res
+            innov_var[k, cols] = res_var
         x_filt[k] = x
         P_filt[k] = P
-        # ---- time update to k + 1
-        F = Fs[k]
-        x = propagate(x, u[k], dt, g[k], earth, F)
-        G = F[:9, 9:15]
-        P = F @ P @ F.T + Qm
-        P[:9, :9] += (G * var_u) @ G.T
+        x, P = _predict(x, P, u[k], dt, g[k], earth, Fs[k], Qm, var_u)
     return {"x_filt": x_filt, "P_filt": P_filt, "x_pred": x_pred, "P_pred": P_pred, "F": Fs,
             "innov": innov, "innov_var": innov_var, "iterations": iters}
 

@@ -5,7 +5,8 @@ states: bias-corrected specific forces and rates, reconstructed alpha, beta, V a
 estimated sensor biases with standard deviations and innovation statistics (a data-
 compatibility check), then the aerodynamic coefficients of Eq. 43-48. The filter is
 described in ``docs/reconstruction.md``; the equations in
-:mod:`simplexspline.aero.reconstruction.kinematics`, the filter in :mod:`simplexspline.aero.reconstruction.iekf`.
+:mod:`simplexspline.aero.reconstruction.kinematics`, the filter in
+:mod:`simplexspline.aero.reconstruction.iekf`.
 
 Every maneuver is reconstructed independently (its own biases); a maneuver that cannot be
 reconstructed (too short, a NaN burst in an IMU channel, a channel without any valid sample,
@@ -15,34 +16,43 @@ a diverging filter) is rejected with the reason and the others still process.
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
 from collections.abc import Mapping
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from simplexspline.aero.reconstruction.iekf import rts_smooth, run_filter
+from simplexspline._files import jsonable
+from simplexspline.aero.data.coefficients import aerodynamic_coefficients
+from simplexspline.aero.data.flight_data import validate_flight_data
+from simplexspline.aero.data.whiteness import whiteness_band
+from simplexspline.aero.reconstruction.iekf import (
+    FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
+)
 from simplexspline.aero.reconstruction.kinematics import (
     BIAS_STATES, INPUT_NAMES, MEASUREMENT_NAMES, NX, STATE_NAMES, EarthModel,
 )
+from simplexspline.aero.variables import DEG
 from simplexspline.errors import FlightDataError, InputError
 
 __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstruct_maneuver",
            "innovation_statistics"]
 
-_DEG = math.pi / 180.0
 #: Channels a maneuver cannot be reconstructed without (at least one valid sample each).
 ESSENTIAL_MEASUREMENTS = ("tas", "alpha", "beta", "phi", "theta", "psi")
 
 
 def _default_input_noise() -> dict:
-    return {"ax": 0.01, "ay": 0.01, "az": 0.01, "p": 0.01 * _DEG, "q": 0.01 * _DEG,
-            "r": 0.01 * _DEG}
+    return {"ax": 0.01, "ay": 0.01, "az": 0.01, "p": 0.01 * DEG, "q": 0.01 * DEG,
+            "r": 0.01 * DEG}
 
 
 def _default_measurement_noise() -> dict:
     return {"x_gps": 2.0, "y_gps": 2.0, "z_gps": 4.0, "vn_gps": 0.05, "ve_gps": 0.05,
-            "vd_gps": 0.1, "tas": 0.1, "alpha": 0.1 * _DEG, "beta": 0.1 * _DEG,
-            "phi": 0.05 * _DEG, "theta": 0.05 * _DEG, "psi": 0.1 * _DEG}
+            "vd_gps": 0.1, "tas": 0.1, "alpha": 0.1 * DEG, "beta": 0.1 * DEG,
+            "phi": 0.05 * DEG, "theta": 0.05 * DEG, "psi": 0.1 * DEG}
 
 
 def _default_prior() -> dict:
@@ -151,7 +161,8 @@ def innovation_statistics(innov: np.ndarray, innov_var: np.ndarray, max_lag: int
         Per measurement channel: ``samples``; ``mean`` and ``std`` of the normalised
         innovation (0 and 1 for a consistent filter); ``rho1`` the lag-1 autocorrelation;
         ``white`` the fraction of the autocorrelations at lags 1..max_lag inside the 95 %
-        band +-1.96/sqrt(n) (about 0.95 for a white sequence).
+        band :func:`~simplexspline.aero.data.whiteness.whiteness_band` (about 0.95 for a
+        white sequence).
     """
     out = {}
     for j, name in enumerate(MEASUREMENT_NAMES):
@@ -167,7 +178,7 @@ def innovation_statistics(innov: np.ndarray, innov_var: np.ndarray, max_lag: int
         ac = acov[1:] / acov[0] if acov[0] > 0 else np.zeros(max_lag)
         out[name] = {"samples": n, "mean": float(nu.mean()), "std": float(nu.std()),
                      "rho1": float(ac[0]),
-                     "white": float(np.mean(np.abs(ac) <= 1.96 / math.sqrt(n)))}
+                     "white": float(np.mean(np.abs(ac) <= whiteness_band(n)))}
     return out
 
 
@@ -247,16 +258,17 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     earth = EarthModel(math.radians(s["latitude_deg"]), s["earth_rotation"])
     g = np.asarray(earth.gravity(h), dtype=float)
 
-    x0, P0 = _initial_state(z, s["prior"])
-    sig_u = np.array([s["input_noise"][c] for c in INPUT_NAMES])
-    r = np.array([s["measurement_noise"][c] for c in MEASUREMENT_NAMES])
     q_model = np.zeros(NX)
     q_model[3:6] = (s["velocity_model_noise"] * dt) ** 2
     q_model[6:9] = (1e-6 * dt) ** 2
     q_model[9:] = 1e-16          # numerical floor on the (constant) biases
+    noise = FilterNoise(input_std=np.array([s["input_noise"][c] for c in INPUT_NAMES]),
+                        process_var=q_model,
+                        measurement_std=np.array([s["measurement_noise"][c]
+                                                  for c in MEASUREMENT_NAMES]))
     with np.errstate(over="raise", invalid="raise", divide="raise"):
-        out = run_filter(x0, P0, u, z, dt, g, earth, sig_u, q_model, r, tol=s["tol"],
-                         max_iter=s["max_iter"])
+        out = run_filter(initial_state(z, s["prior"]), u, z, dt, g, earth, noise,
+                         IteratedUpdate(tol=s["tol"], max_iter=s["max_iter"]))
     innov = out["innov"]
     stats = innovation_statistics(innov, out["innov_var"])
     worst = max((abs(v["mean"]) + v["std"] for v in stats.values()), default=0.0)
@@ -292,8 +304,21 @@ def _first_valid(z: np.ndarray, j: int) -> float:
     return float(col[ok[0]]) if ok.size else math.nan
 
 
-def _initial_state(z: np.ndarray, prior: Mapping) -> tuple[np.ndarray, np.ndarray]:
-    """Initial state from the first valid air-data, attitude and GPS samples."""
+def initial_state(z: np.ndarray, prior: Mapping) -> StateEstimate:
+    """Initial state from the first valid air-data, attitude and GPS samples.
+
+    Parameters
+    ----------
+    z : (n, 12) ndarray
+        Measurements of one maneuver (NaN where missing).
+    prior : mapping
+        Initial standard deviations (:attr:`ReconstructionSettings.prior`).
+
+    Returns
+    -------
+    StateEstimate
+        Biases start at zero; the covariance is diagonal.
+    """
     m = {c: _first_valid(z, j) for j, c in enumerate(MEASUREMENT_NAMES)}
     V, a, b = m["tas"], m["alpha"], m["beta"]
     x0 = np.zeros(NX)
@@ -308,7 +333,7 @@ def _initial_state(z: np.ndarray, prior: Mapping) -> tuple[np.ndarray, np.ndarra
     sd[12:15] = prior["gyro_bias"]
     sd[15:17] = prior["vane_bias"]
     sd[17] = prior["tas_bias"]
-    return x0, np.diag(sd ** 2)
+    return StateEstimate(x0, np.diag(sd ** 2))
 
 
 # ----------------------------------------------------------------------------- campaign
@@ -350,7 +375,7 @@ class Reconstruction:
     def bias_table(self):
         """Estimated biases per maneuver: a DataFrame with ``<channel>`` and
         ``<channel>_sigma`` columns, indexed by maneuver."""
-        import pandas as pd
+        import pandas as pd  # optional dependency (the 'aero' extra)
 
         rows = {m: {k: v for ch, (val, sd) in r["biases"].items()
                     for k, v in ((ch, val), (ch + "_sigma", sd))}
@@ -410,7 +435,7 @@ def _tasks(df) -> list[dict]:
 
 
 def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
-    from tqdm import tqdm
+    from tqdm import tqdm  # optional dependency (the 'aero' extra)
 
     payload = [{k: v for k, v in t.items() if k != "rows"} for t in tasks]
     results: list = [None] * len(tasks)
@@ -422,9 +447,6 @@ def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
                 results[i] = reconstruct_maneuver(payload[i], settings)
                 bar.update(1)
             return results
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
         ctx = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
             futures = {pool.submit(reconstruct_maneuver, payload[i], settings): i
@@ -433,17 +455,6 @@ def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
                 results[futures[fut]] = fut.result()
                 bar.update(1)
     return results
-
-
-def _plain(obj):
-    """JSON-friendly copy (numpy scalars to Python, int keys to str)."""
-    if isinstance(obj, Mapping):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    return obj
 
 
 def reconstruct(df, metadata: Mapping | None = None, *,
@@ -480,11 +491,6 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     >>> print(rec.summary())                                   # doctest: +SKIP
     >>> rec.data[["CX", "CZ", "Cm"]].describe()                # doctest: +SKIP
     """
-    import os
-
-    from simplexspline.aero.data.coefficients import aerodynamic_coefficients
-    from simplexspline.aero.data.flight_data import validate_flight_data
-
     settings = ReconstructionSettings() if settings is None else settings
     if not isinstance(settings, ReconstructionSettings):
         raise InputError("settings must be a ReconstructionSettings")
@@ -531,7 +537,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                          thrust_subtracted=thrust,
                          accelerations="measured" if measured_acc else "differentiated",
                          unused_channels=unused, settings=settings)
-    meta["reconstruction"] = _plain({
+    meta["reconstruction"] = jsonable({
         "method": "iterated extended Kalman filter + RTS smoother (docs/reconstruction.md)",
         "settings": settings.to_dict(),
         "thrust_subtracted": thrust, "accelerations": rec.accelerations,
