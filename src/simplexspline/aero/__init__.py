@@ -17,10 +17,9 @@ from simplexspline.aero.derivatives.stability import (
     condition_grid,
     derivatives,
     load_models,
-    plot_derivative_map,
-    plot_derivatives,
     reference_conditions,
 )
+from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
 from simplexspline.aero.data.differentiation import midpoint_derivative
 from simplexspline.aero.data.flight_data import (
     FLIGHT_DATA_COLUMNS,

@@ -30,10 +30,6 @@ from pathlib import Path
 
 import numpy as np
 
-from simplexspline.aero.derivatives.plots import (  # noqa: F401 - re-exported
-    plot_derivative_map,
-    plot_derivatives,
-)
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.variables import CANDIDATE_VARIABLES, COEFFICIENTS, UNITS
 from simplexspline.errors import InputError, ModelFileError, OutsideDomainError

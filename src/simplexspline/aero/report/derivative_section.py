@@ -35,7 +35,8 @@ def _sweep_axes(model, ident) -> dict:
 
 
 def _fig_derivatives(r, c: str, model, ident, ref: dict) -> _Figure | None:
-    from simplexspline.aero.derivatives.stability import derivatives, plot_derivatives
+    from simplexspline.aero.derivatives.plots import plot_derivatives
+    from simplexspline.aero.derivatives.stability import derivatives
 
     axes = _sweep_axes(model, ident)
     x = next(iter(axes))
@@ -55,7 +56,8 @@ def _fig_derivatives(r, c: str, model, ident, ref: dict) -> _Figure | None:
 
 
 def _fig_derivative_maps(r, models: dict, ref: dict) -> _Figure | None:
-    from simplexspline.aero.derivatives.stability import derivatives, plot_derivative_map
+    from simplexspline.aero.derivatives.plots import plot_derivative_map
+    from simplexspline.aero.derivatives.stability import derivatives
 
     both = {c: m for c, m in models.items() if {"alpha", "mach"} <= set(m.variables)}
     if not both:
