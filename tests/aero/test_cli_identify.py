@@ -76,7 +76,9 @@ def test_unknown_variable_is_a_clear_message_and_writes_nothing(campaign_file, t
 @pytest.mark.parametrize("args, match", [
     (["--model", "CZ alpha"], "cannot read the model structure"),
     (["--coefficients", "CZ,CW"], "unknown coefficient(s) ['CW']"),
-    (["--validation-fraction", "1.5"], "validation_fraction must be in (0, 1)"),
+    (["--validation-fraction", "1.5"],
+     "argument --validation-fraction: expected a number between 0 and 1, got '1.5'"),
+    (["--seed", "-1"], "a seed must be an integer between 0 and 4294967295, got '-1'"),
     (["--config", "missing.toml"], "config file 'missing.toml' does not exist"),
 ])
 def test_bad_options(campaign_file, tmp_path, capsys, args, match):

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline import SplineSpace, Triangulation
+from simplexspline.cli import arguments
 
 
 def _truth(x: np.ndarray) -> np.ndarray:
@@ -26,12 +27,15 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "known 3-D function, a fitted triangulation, an S^r_d spline fitted by constrained "
         "least squares, and validation against held-out samples and the noise-free truth.",
     )
-    p.add_argument("--samples", type=int, default=200_000, help="number of samples (200000)")
-    p.add_argument("--noise", type=float, default=0.02, help="noise standard deviation (0.02)")
-    p.add_argument("--degree", type=int, default=3, help="polynomial degree d (3)")
+    p.add_argument("--samples", type=arguments.count, default=200_000,
+                   help="number of samples (200000)")
+    p.add_argument("--noise", type=arguments.non_negative_number, default=0.02,
+                   help="noise standard deviation (0.02)")
+    p.add_argument("--degree", type=arguments.non_negative, default=3,
+                   help="polynomial degree d (3)")
     p.add_argument("--continuity", type=int, default=1, help="continuity order r (1)")
-    p.add_argument("--cells", type=int, default=3, help="grid cells per axis (3)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    p.add_argument("--cells", type=arguments.count, default=3, help="grid cells per axis (3)")
+    p.add_argument("--seed", type=arguments.seed, default=0, help="random seed (0)")
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="save the fitted model to this .json or .npz file")
     return p

@@ -13,6 +13,7 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
+from simplexspline.cli import arguments
 from simplexspline.aero.config import load_config, parse_structure
 from simplexspline.aero.data.flight_data import read_flight_data
 from simplexspline.aero.identify import IdentificationSettings, ThinDataWarning, file_hash, identify
@@ -55,17 +56,17 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    "default of the main job on its simulated F-16)")
     p.add_argument("--no-select", action="store_true",
                    help="fit the given/preset structures as they are (no selection)")
-    p.add_argument("--rounds", type=int, default=None,
+    p.add_argument("--rounds", type=arguments.non_negative, default=None,
                    help="rounds of the structure selection (6)")
-    p.add_argument("--validation-fraction", type=float, default=None,
+    p.add_argument("--validation-fraction", type=arguments.fraction, default=None,
                    help="fraction of maneuvers held out for validation (0.25)")
-    p.add_argument("--seed", type=int, default=None, help="seed of split and folds (0)")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--seed", type=arguments.seed, default=None, help="seed of split and folds (0)")
+    p.add_argument("--workers", type=arguments.count, default=None,
                    help="processes for simulation and reconstruction (all CPUs)")
     p.add_argument("--format", choices=("json", "npz"), default="json",
                    help="model file format (json)")
     p.add_argument("--no-report", action="store_true", help="skip report.html / figures")
-    p.add_argument("--maneuvers", type=int, default=None,
+    p.add_argument("--maneuvers", type=arguments.count, default=None,
                    help=f"maneuvers of the simulated campaign without DATA "
                    f"({DEFAULT_CAMPAIGN['maneuvers']})")
     p.add_argument("--aircraft", default=None,
@@ -103,8 +104,6 @@ def _settings(args):
     if args.workers is not None:
         changes["workers"] = args.workers
     if args.rounds is not None:
-        if args.rounds < 0:
-            raise InputError(f"--rounds must be >= 0, got {args.rounds}")
         changes["selection"] = replace(settings.selection, max_rounds=args.rounds)
     return replace(settings, **changes)
 

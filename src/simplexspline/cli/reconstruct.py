@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+from simplexspline.cli import arguments
 from simplexspline.aero.data.flight_data import read_flight_data, write_flight_data
 from simplexspline.aero.reconstruction.reconstruct import ReconstructionSettings, reconstruct
 from simplexspline.errors import InputError
@@ -29,7 +30,7 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("input", type=Path, help="flight data, .parquet or .csv (+ .csv.json)")
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="output file, .parquet (preferred) or .csv")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=arguments.count, default=None,
                    help="worker processes (number of CPUs)")
     p.add_argument("--accelerations", choices=("auto", "measured", "differentiate"),
                    default="auto", help="source of pdot, qdot, rdot (auto: the columns if "
@@ -38,7 +39,7 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help="use the forward filter only (no RTS backward pass)")
     p.add_argument("--latitude", type=float, default=52.0,
                    help="geodetic latitude of the flights [deg] (52, the simulator's)")
-    p.add_argument("--min-duration", type=float, default=2.0,
+    p.add_argument("--min-duration", type=arguments.positive, default=2.0,
                    help="reject maneuvers shorter than this [s] (2.0)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     return p

@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+from simplexspline.cli import arguments
 from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError
 from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
@@ -46,10 +47,11 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "extra: pip install 'simplexspline[sim]'.",
     )
     p.add_argument("--aircraft", default="f16", help="aircraft profile: f16 or global5000 (f16)")
-    p.add_argument("--maneuvers", type=int, default=250, help="number of maneuvers (250)")
-    p.add_argument("--per-condition", type=int, default=None, metavar="N",
+    p.add_argument("--maneuvers", type=arguments.count, default=250,
+                   help="number of maneuvers (250)")
+    p.add_argument("--per-condition", type=arguments.count, default=None, metavar="N",
                    help="N maneuvers at every usable flight condition instead of --maneuvers")
-    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    p.add_argument("--seed", type=arguments.seed, default=0, help="random seed (0)")
     p.add_argument("--altitudes", type=_floats, default=None, metavar="H1,H2,...",
                    help="altitudes of the condition grid [m] (the aircraft's default grid)")
     p.add_argument("--airspeeds", type=_floats, default=None, metavar="V1,V2,...",
@@ -57,16 +59,16 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--mix", type=_mix, default=None, metavar="FAMILY=W,...",
                    help="relative frequency of 3211, doublet and sum-of-sines maneuvers "
                         "(3211=0.45,doublet=0.2,sum-of-sines=0.35)")
-    p.add_argument("--turn-fraction", type=float, default=0.5,
+    p.add_argument("--turn-fraction", type=arguments.share, default=0.5,
                    help="fraction of sum-of-sines maneuvers flown in a level turn instead of "
                         "straight and level (0.5)")
-    p.add_argument("--noise-scale", type=float, default=1.0,
+    p.add_argument("--noise-scale", type=arguments.non_negative_number, default=1.0,
                    help="factor on the default sensor noise (1.0)")
-    p.add_argument("--bias-scale", type=float, default=1.0,
+    p.add_argument("--bias-scale", type=arguments.non_negative_number, default=1.0,
                    help="factor on the default sensor biases (1.0)")
     p.add_argument("--ideal-sensors", action="store_true",
                    help="perfect sensors: measured channels equal the true ones")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=arguments.count, default=None,
                    help="worker processes (number of CPUs)")
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="output file, .parquet (preferred) or .csv (+ .csv.json metadata)")

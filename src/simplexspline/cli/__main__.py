@@ -1,0 +1,7 @@
+"""``python -m simplexspline.cli``: the same as the ``simplexspline`` command."""
+
+import sys
+
+from simplexspline.cli import main
+
+sys.exit(main())
