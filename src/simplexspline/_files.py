@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import math
 import os
+import secrets
 import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_write", "jsonable", "write_bytes", "write_text"]
+__all__ = ["atomic_write", "jsonable", "write_bytes", "write_text", "write_together"]
 
 
 def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Path:
@@ -86,3 +87,58 @@ def jsonable(obj):
         v = float(obj)
         return v if math.isfinite(v) else None
     return obj
+
+
+def write_together(contents: Mapping[str | os.PathLike, bytes]) -> list[Path]:
+    """Write several files as one: all new, or (after any failure) all as they were.
+
+    Every file is first written in full to a temporary file next to its target (the step
+    that fails on a full disk or an unwritable directory); only then are the targets
+    replaced, one rename each. The old versions are kept as hard links until every rename
+    has succeeded, and put back if one fails, so a table never sits beside its old sidecar.
+
+    Parameters
+    ----------
+    contents : mapping of path-like to bytes
+        Target path -> its complete content.
+
+    Returns
+    -------
+    list of Path
+        The targets, in the order given.
+    """
+    targets = [Path(p) for p in contents]
+    temps: list[tuple[Path, str]] = []
+    backups: dict[Path, str] = {}
+    done: list[Path] = []
+    try:
+        for path, data in zip(targets, contents.values()):
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            temps.append((path, tmp))
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        for path, _ in temps:
+            if path.exists():
+                backup = str(path.parent / f".{path.name}.{secrets.token_hex(8)}.old")
+                os.link(path, backup)         # fails rather than follows an existing name
+                backups[path] = backup
+        for path, tmp in temps:
+            os.replace(tmp, path)
+            done.append(path)
+    except BaseException:
+        for path in done:                     # put the old versions back
+            if path in backups:
+                os.replace(backups.pop(path), path)
+            else:
+                path.unlink(missing_ok=True)
+        for _, tmp in temps:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        raise
+    finally:
+        for backup in backups.values():
+            if os.path.exists(backup):
+                os.unlink(backup)
+    return targets

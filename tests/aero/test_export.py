@@ -224,6 +224,29 @@ def test_lookup_table_values_and_files(cz, tmp_path):
     np.testing.assert_array_equal(np.isnan(nan.values), nan.outside)
 
 
+def test_table_and_sidecar_are_written_as_a_pair(cz, tmp_path, monkeypatch):
+    """A sidecar that cannot be written leaves the old table and sidecar, not a mixed pair."""
+    import os
+
+    t = lookup_table(cz, {"alpha": [0.0, 0.1], "de": [0.0], "mach": [0.5]})
+    t.save(tmp_path / "cz.csv")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    t2 = lookup_table(cz, {"alpha": [0.0, 0.2, 0.3], "de": [0.0], "mach": [0.5]})
+    real, calls = os.fdopen, []
+
+    def disk_full_on_the_second_file(fd, *args, **kwargs):
+        calls.append(fd)
+        if len(calls) == 2:
+            os.close(fd)
+            raise OSError(28, "No space left on device")
+        return real(fd, *args, **kwargs)
+
+    monkeypatch.setattr(os, "fdopen", disk_full_on_the_second_file)
+    with pytest.raises(OSError, match="No space left"):
+        t2.save(tmp_path / "cz.csv")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
 def test_lookup_table_of_a_plain_spline():
     tri = Triangulation.grid([0.0, 0.0], [1.0, 1.0], (2, 2))
     s = SplineSpace(tri, 1, 0).fit(np.random.default_rng(0).uniform(0, 1, (200, 2)),

@@ -25,7 +25,7 @@ from xml.sax.saxutils import escape
 
 import numpy as np
 
-from simplexspline._files import write_bytes, write_text
+from simplexspline._files import write_text, write_together
 from simplexspline._version import __version__
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.variables import UNITS
@@ -171,7 +171,8 @@ class LookupTable:
              function_name: str | None = None) -> list[Path]:
         """Write the table by suffix: ``.csv`` or ``.npz`` (+ a ``<name>.json`` sidecar)
         or ``.xml`` (JSBSim snippet, see :meth:`to_jsbsim`). Each file is written
-        atomically. Returns the paths written."""
+        atomically; a table and its sidecar together (both new or both old). Returns the
+        paths written."""
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in (".csv", ".npz", ".xml"):
@@ -184,7 +185,7 @@ class LookupTable:
             return [path]
         header = self.header()
         if suffix == ".csv":
-            write_text(path, self._csv())
+            table = self._csv().encode("utf-8")
         else:
             arrays = {"values": self.values, "outside": self.outside,
                       "header": np.array(json.dumps(header, allow_nan=False))}
@@ -192,10 +193,10 @@ class LookupTable:
                 arrays[f"breakpoints_{k}"] = b
             buf = io.BytesIO()
             np.savez(buf, **arrays)
-            write_bytes(path, buf.getvalue())
+            table = buf.getvalue()
         sidecar = path.with_name(path.name + ".json")
-        write_text(sidecar, _json_text(header))
-        return [path, sidecar]
+        # a table and its sidecar are one: both new, or (after a failure) both as they were
+        return write_together({path: table, sidecar: _json_text(header).encode("utf-8")})
 
     def _csv(self) -> str:
         grids = np.meshgrid(*self.breakpoints, indexing="ij")

@@ -1,0 +1,86 @@
+"""Files are written whole or not at all: single files and groups (a table and its sidecar)."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from simplexspline import _files
+from simplexspline._files import write_text, write_together
+
+
+def _listing(d):
+    return sorted(p.name for p in d.iterdir())
+
+
+def test_write_together_writes_all_and_leaves_no_temporaries(tmp_path):
+    a, b = tmp_path / "t.csv", tmp_path / "t.csv.json"
+    assert write_together({a: b"x,y\n", b: b"{}"}) == [a, b]
+    assert a.read_bytes() == b"x,y\n" and b.read_bytes() == b"{}"
+    assert write_together({a: b"new", b: b"[]"}) == [a, b]
+    assert (a.read_bytes(), b.read_bytes()) == (b"new", b"[]")
+    assert _listing(tmp_path) == ["t.csv", "t.csv.json"]
+
+
+def test_a_failed_write_keeps_the_old_pair(tmp_path, monkeypatch):
+    a, b = tmp_path / "t.csv", tmp_path / "t.csv.json"
+    write_together({a: b"old table", b: b"old sidecar"})
+    real = os.fdopen
+    calls = []
+
+    def full_disk(fd, *args, **kwargs):
+        calls.append(fd)
+        if len(calls) == 2:                       # the sidecar's write: disk full
+            os.close(fd)
+            raise OSError(28, "No space left on device")
+        return real(fd, *args, **kwargs)
+
+    monkeypatch.setattr(os, "fdopen", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        write_together({a: b"new table", b: b"new sidecar"})
+    assert (a.read_bytes(), b.read_bytes()) == (b"old table", b"old sidecar")
+    assert _listing(tmp_path) == ["t.csv", "t.csv.json"]
+
+
+def test_a_failed_rename_puts_the_first_file_back(tmp_path, monkeypatch):
+    a, b = tmp_path / "t.npz", tmp_path / "t.npz.json"
+    write_together({a: b"old table", b: b"old sidecar"})
+    real = os.replace
+
+    def second_rename_fails(src, dst):
+        if str(dst) == str(b) and str(src).endswith(".tmp"):
+            raise OSError(5, "Input/output error")
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", second_rename_fails)
+    with pytest.raises(OSError, match="Input/output"):
+        write_together({a: b"new table", b: b"new sidecar"})
+    assert (a.read_bytes(), b.read_bytes()) == (b"old table", b"old sidecar")
+    assert _listing(tmp_path) == ["t.npz", "t.npz.json"]
+
+
+def test_a_failed_first_write_of_a_new_pair_leaves_nothing(tmp_path, monkeypatch):
+    def broken(fd, *args, **kwargs):
+        os.close(fd)
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "fdopen", broken)
+    with pytest.raises(OSError):
+        write_together({tmp_path / "a": b"1", tmp_path / "b": b"2"})
+    assert _listing(tmp_path) == []
+
+
+def test_write_text_is_atomic_under_a_failing_writer(tmp_path):
+    target = tmp_path / "m.json"
+    write_text(target, "old")
+
+    def fails(tmp):
+        with open(tmp, "w") as fh:
+            fh.write("half")
+        raise RuntimeError("killed")
+
+    with pytest.raises(RuntimeError):
+        _files.atomic_write(target, fails)
+    assert target.read_text() == "old"
+    assert _listing(tmp_path) == ["m.json"]
