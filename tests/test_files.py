@@ -84,3 +84,15 @@ def test_write_text_is_atomic_under_a_failing_writer(tmp_path):
         _files.atomic_write(target, fails)
     assert target.read_text() == "old"
     assert _listing(tmp_path) == ["m.json"]
+
+
+@pytest.mark.parametrize("mask", [0o022, 0o077, 0o002])
+def test_written_files_follow_the_umask(tmp_path, mask):
+    old = os.umask(mask)
+    try:
+        write_text(tmp_path / "one.json", "{}")
+        write_together({tmp_path / "t.csv": b"x", tmp_path / "t.csv.json": b"{}"})
+    finally:
+        os.umask(old)
+    for name in ("one.json", "t.csv", "t.csv.json"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == 0o666 & ~mask

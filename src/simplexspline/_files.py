@@ -20,11 +20,33 @@ import numpy as np
 __all__ = ["atomic_write", "jsonable", "write_bytes", "write_text", "write_together"]
 
 
+def _umask() -> int:
+    """The process's file-mode creation mask: read from /proc where it is shown (Linux), so
+    that other threads never see it changed; elsewhere set and restored at once."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _as_if_created(tmp: str | os.PathLike) -> None:
+    """Give a temporary file the mode a plain ``open(path, 'w')`` would (0666 & ~umask):
+    :func:`tempfile.mkstemp` creates 0600, which the rename would carry to the target."""
+    os.chmod(tmp, 0o666 & ~_umask())
+
+
 def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Path:
     """Call ``write(tmp_path)`` for a temporary file next to ``path``, then rename it.
 
     A failed or interrupted write never leaves a partial file at ``path`` (nor the
-    temporary file).
+    temporary file). The file gets the mode of a normally created file (0666 minus the
+    umask), not the temporary file's 0600.
 
     Parameters
     ----------
@@ -43,6 +65,7 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Pat
     os.close(fd)
     try:
         write(tmp)
+        _as_if_created(tmp)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -119,6 +142,7 @@ def write_together(contents: Mapping[str | os.PathLike, bytes]) -> list[Path]:
                 fh.write(data)
                 fh.flush()
                 os.fsync(fh.fileno())
+            _as_if_created(tmp)
         for path, _ in temps:
             if path.exists():
                 backup = str(path.parent / f".{path.name}.{secrets.token_hex(8)}.old")
