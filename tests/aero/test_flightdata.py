@@ -105,6 +105,16 @@ def test_values_in_degrees_are_caught(rng):
         validate_flight_data(df)
 
 
+def test_a_noisy_north_heading_just_above_two_pi_is_accepted(rng):
+    """A heading recorded in [0, 2 pi) plus sensor noise flying north: not 'impossible'."""
+    df = make_data(rng)
+    df["psi"] = 2 * np.pi + 0.01 * np.sin(np.arange(len(df)))
+    validate_flight_data(df)
+    df.loc[3, "psi"] = 350.0                      # a heading in degrees is still caught
+    with pytest.raises(FlightDataError, match="column 'psi' has value 350 at row 3.*radians"):
+        validate_flight_data(df)
+
+
 @pytest.mark.parametrize("column, value", [("tas", 0.0), ("rho", -1.0), ("Izz", 0.0)])
 def test_non_positive_physical_quantities(rng, column, value):
     df = make_data(rng)

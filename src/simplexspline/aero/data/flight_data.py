@@ -157,16 +157,16 @@ REQUIRED_COLUMNS: tuple[str, ...] = tuple(n for n, s in FLIGHT_DATA_COLUMNS.item
 #: Metadata keys every file must have (S, b, cbar in m^2, m, m).
 REQUIRED_METADATA: tuple[str, ...] = ("schema", "aircraft", "S", "b", "cbar")
 
+#: Slack beyond +-2 pi for the wrapped angles phi and psi [rad]: a heading recorded in
+#: [0, 2 pi) plus sensor noise lies just above 2 pi when flying north.
+_WRAP_SLACK = 0.2
+
 # plausibility bounds of values in the documented unit: (low, high, hint)
+_HALF_PI = (-math.pi / 2, math.pi / 2, "radians")
+_WRAPPED = (-2 * math.pi - _WRAP_SLACK, 2 * math.pi + _WRAP_SLACK, "radians")
 _BOUNDS = {
-    "alpha": (-math.pi / 2, math.pi / 2, "radians"), "beta": (-math.pi / 2, math.pi / 2,
-                                                              "radians"),
-    "phi": (-2 * math.pi, 2 * math.pi, "radians"), "theta": (-math.pi / 2, math.pi / 2,
-                                                             "radians"),
-    "psi": (-2 * math.pi, 2 * math.pi, "radians"), "de": (-math.pi / 2, math.pi / 2,
-                                                          "radians"),
-    "da": (-math.pi / 2, math.pi / 2, "radians"), "dr": (-math.pi / 2, math.pi / 2,
-                                                         "radians"),
+    "alpha": _HALF_PI, "beta": _HALF_PI, "theta": _HALF_PI, "phi": _WRAPPED, "psi": _WRAPPED,
+    "de": _HALF_PI, "da": _HALF_PI, "dr": _HALF_PI,
     "tas": (0.0, math.inf, "m/s"), "rho": (0.0, 5.0, "kg/m^3"), "mass": (0.0, math.inf, "kg"),
     "Ixx": (0.0, math.inf, "kg m^2"), "Iyy": (0.0, math.inf, "kg m^2"),
     "Izz": (0.0, math.inf, "kg m^2"), "mach": (0.0, 10.0, "-"),
