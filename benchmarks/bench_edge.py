@@ -163,7 +163,7 @@ def cost(large: bool) -> int:
 def write_figure(path: str, data: dict, cov, dim: int) -> None:
     from matplotlib.figure import Figure
 
-    from simplexspline.spline.formats.model_file import atomic_write
+    from simplexspline._files import atomic_write
 
     fig = Figure(figsize=(11.0, 4.2), dpi=100)
     ax1 = fig.add_subplot(1, 2, 1)

@@ -13,7 +13,7 @@ from simplexspline import InputError, NormalEquations, OutsideDomainError, Splin
 from simplexspline.spline import kernels
 from simplexspline.spline.fit import constrained as solve
 from simplexspline.spline.fit import normal_equations as normal
-from simplexspline.spline.fit.constrained import SparseCholesky, _nested_dissection
+from simplexspline.spline.fit.cholesky import SparseCholesky, nested_dissection
 
 from . import reference as ref
 
@@ -53,7 +53,7 @@ def test_sparse_cholesky_solves_spd_systems(shape, leaf):
 def test_nested_dissection_is_a_valid_ordering():
     rng = np.random.default_rng(5)
     A, pts = _grid_laplacian((10, 9, 8), rng)
-    perm, nodes = _nested_dissection(A, pts, 30)
+    perm, nodes = nested_dissection(A, pts, 30)
     assert np.array_equal(np.sort(perm), np.arange(A.shape[0]))
     # Separator property: unknowns of two sibling subtrees are never coupled.
     span = {}

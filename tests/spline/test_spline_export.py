@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from simplexspline import InputError, SimplexSpline, Triangulation
-from simplexspline.spline.formats.c_export import domain_box, generate_c, reference_evaluate
+from simplexspline.spline.formats.c_export import generate_c, reference_evaluate
+from simplexspline.spline.formats.c_templates import domain_box
 
 from . import reference as ref
 from .cases import delaunay_points, seeded

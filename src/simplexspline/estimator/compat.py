@@ -4,14 +4,14 @@
 scikit-learn. This module holds everything that depends on which case applies:
 
 * the optional import of scikit-learn (:data:`HAVE_SKLEARN`) and the base classes of the
-  estimator, ``_Bases``: scikit-learn's ``RegressorMixin`` and ``BaseEstimator`` when it is
+  estimator, ``ESTIMATOR_BASES``: scikit-learn's ``RegressorMixin`` and ``BaseEstimator`` when it is
   installed, else the fallbacks :class:`_FallbackRegressorMixin` (``score``) and
   :class:`_FallbackBaseEstimator` (``get_params``, ``set_params``, ``repr``), which behave
   as scikit-learn's;
-* input validation: scikit-learn's own (``_sk_call``, its ValueErrors turned into
+* input validation: scikit-learn's own (``sk_call``, its ValueErrors turned into
   :class:`~simplexspline.InputError`) or an equivalent without it
-  (``_fallback_validate_X``, ``_fallback_validate_y``), and the checks used in either case
-  (``_check_weights``, ``_is_int``).
+  (``fallback_validate_X``, ``fallback_validate_y``), and the checks used in either case
+  (``check_weights``, ``is_int``).
 
 Private to :mod:`simplexspline.estimator.regressor`, which re-exports these names.
 """
@@ -30,7 +30,7 @@ from simplexspline.errors import InputError, SimplexSplineError
 try:  # scikit-learn is optional
     from sklearn.base import BaseEstimator as _BaseEstimator
     from sklearn.base import RegressorMixin as _RegressorMixin
-    from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
+    from sklearn.exceptions import NotFittedError as SklearnNotFittedError
 
     try:  # scikit-learn >= 1.6
         from sklearn.utils.validation import validate_data as _sk_validate_data
@@ -40,7 +40,7 @@ try:  # scikit-learn is optional
 except ImportError:  # pragma: no cover - exercised by a subprocess test
     HAVE_SKLEARN = False
     _sk_validate_data = None
-    _SklearnNotFittedError = AttributeError
+    SklearnNotFittedError = AttributeError
     _BaseEstimator = None
     _RegressorMixin = None
 
@@ -99,7 +99,7 @@ class _FallbackRegressorMixin:
         y = np.asarray(y, dtype=float)
         if y.shape != pred.shape:
             y = y.reshape(pred.shape)
-        w = np.ones(len(y)) if sample_weight is None else _check_weights(sample_weight,
+        w = np.ones(len(y)) if sample_weight is None else check_weights(sample_weight,
                                                                          len(y))
         y2, p2 = y.reshape(len(y), -1), pred.reshape(len(y), -1)
         mean = (w[:, None] * y2).sum(axis=0) / w.sum()
@@ -112,17 +112,17 @@ class _FallbackRegressorMixin:
 
 
 if HAVE_SKLEARN:
-    _Bases = (_RegressorMixin, _BaseEstimator)
+    ESTIMATOR_BASES = (_RegressorMixin, _BaseEstimator)
 else:  # pragma: no cover - exercised by a subprocess test
-    _Bases = (_FallbackRegressorMixin, _FallbackBaseEstimator)
+    ESTIMATOR_BASES = (_FallbackRegressorMixin, _FallbackBaseEstimator)
 
 
 # --------------------------------------------------------------------------- validation
-def _is_int(v) -> bool:
+def is_int(v) -> bool:
     return isinstance(v, (numbers.Integral, np.integer)) and not isinstance(v, (bool, np.bool_))
 
 
-def _sk_call(est, X, y, *, reset: bool, **kw):
+def sk_call(est, X, y, *, reset: bool, **kw):
     """scikit-learn's input validation (any supported version); its ValueErrors become
     InputError (a ValueError too) with the same message."""
     kw.setdefault("dtype", np.float64)
@@ -150,7 +150,7 @@ def _feature_names(X):
     return None
 
 
-def _fallback_validate_X(est, X, *, reset: bool) -> np.ndarray:
+def fallback_validate_X(est, X, *, reset: bool) -> np.ndarray:
     """Input validation equivalent to scikit-learn's, for use without it."""
     name = type(est).__name__
     if sp.issparse(X):
@@ -194,7 +194,7 @@ def _fallback_validate_X(est, X, *, reset: bool) -> np.ndarray:
     return arr
 
 
-def _fallback_validate_y(y, npts: int) -> np.ndarray:
+def fallback_validate_y(y, npts: int) -> np.ndarray:
     if y is None:
         raise InputError("this estimator requires y to be passed, but the target y is None")
     try:
@@ -209,7 +209,7 @@ def _fallback_validate_y(y, npts: int) -> np.ndarray:
     return arr
 
 
-def _check_weights(sample_weight, npts: int):
+def check_weights(sample_weight, npts: int):
     """Validated copy of the sample weights, shape (N,), or None."""
     if sample_weight is None:
         return None

@@ -36,46 +36,33 @@ from math import comb, factorial
 
 import numpy as np
 
-from simplexspline.estimator.compat import (  # noqa: F401 - private names re-exported
+from simplexspline.estimator.compat import (
     HAVE_SKLEARN,
-    _BaseEstimator,
-    _Bases,
-    _check_weights,
-    _fallback_validate_X,
-    _fallback_validate_y,
-    _FallbackBaseEstimator,
-    _FallbackRegressorMixin,
-    _feature_names,
-    _is_int,
-    _RegressorMixin,
-    _sk_call,
-    _sk_validate_data,
-    _SklearnNotFittedError,
+    ESTIMATOR_BASES,
+    check_weights,
+    fallback_validate_X,
+    fallback_validate_y,
+    is_int,
+    sk_call,
+    SklearnNotFittedError,
 )
-from simplexspline.estimator.solve import (  # noqa: F401 - private names re-exported
-    _CHUNK,
-    _extra_rhs,
-    _solve_dual,
-    solve_outputs,
-)
+from simplexspline.estimator.solve import solve_outputs
 from simplexspline.errors import InputError
 from simplexspline.spline.bform import num_basis
-from simplexspline.spline.function import SimplexSpline
+from simplexspline.spline.space import SimplexSpline
+from simplexspline.spline.geometry.outside import AERO_POLICIES, check_policy
 from simplexspline.spline.geometry.triangulation import Triangulation
 from simplexspline.spline.inputs import check_degree
 
 __all__ = [
     "SimplexSplineRegressor",
     "NotFittedError",
-    "OUTSIDE",
     "TRIANGULATIONS",
     "GRID_SIMPLEX_LIMIT",
     "MAX_BASIS_PER_SIMPLEX",
     "HAVE_SKLEARN",
 ]
 
-#: Prediction policies outside the training domain.
-OUTSIDE = ("clamp", "extrapolate", "nan")
 
 #: Triangulations the estimator can build (or pass a :class:`Triangulation`).
 TRIANGULATIONS = ("auto", "grid", "simplex")
@@ -93,7 +80,7 @@ MAX_BASIS_PER_SIMPLEX = 6000
 _BOX_TOL = 1e-10
 
 
-class NotFittedError(InputError, _SklearnNotFittedError):
+class NotFittedError(InputError, SklearnNotFittedError):
     """A :class:`SimplexSplineRegressor` used before ``fit``.
 
     Derives from the package's :class:`~simplexspline.InputError` and, when scikit-learn is
@@ -103,7 +90,7 @@ class NotFittedError(InputError, _SklearnNotFittedError):
 
 
 # --------------------------------------------------------------------------- estimator
-class SimplexSplineRegressor(*_Bases):
+class SimplexSplineRegressor(*ESTIMATOR_BASES):
     """Regression with a multivariate simplex spline, scikit-learn compatible.
 
     Fits a spline of S^r_d(T) (degree ``d``, C^r continuity, on a triangulation T of the
@@ -285,7 +272,7 @@ class SimplexSplineRegressor(*_Bases):
         for name in [a for a in vars(self) if a.endswith("_") and not a.startswith("__")]:
             delattr(self, name)  # no stale fitted state if this fit fails
         X, Y = self._validate_X_y(X, y)
-        w = _check_weights(sample_weight, len(X))
+        w = check_weights(sample_weight, len(X))
         cfg = self._check_params(X.shape[1])
         y_2d = Y.ndim == 2
         Y = Y.reshape(len(Y), -1)
@@ -352,18 +339,18 @@ class SimplexSplineRegressor(*_Bases):
         # continuity does not apply to a single polynomial ('simplex')
         degree, _ = check_degree(self.degree, -1)
         continuity = self.continuity
-        if not _is_int(continuity) or continuity < -1:
+        if not is_int(continuity) or continuity < -1:
             raise InputError(f"continuity must be an integer >= -1 (-1: no continuity), got "
                              f"{continuity!r}")
         res = self.resolution
-        if _is_int(res):
+        if is_int(res):
             res = (int(res),) * n_features
         try:
             res = tuple(res)
         except TypeError:
             raise InputError(f"resolution must be a positive integer or a tuple of "
                              f"{n_features} of them, got {self.resolution!r}") from None
-        if len(res) != n_features or not all(_is_int(k) and k >= 1 for k in res):
+        if len(res) != n_features or not all(is_int(k) and k >= 1 for k in res):
             raise InputError(f"resolution must be a positive integer or a tuple of one "
                              f"positive integer per feature ({n_features}), got "
                              f"{self.resolution!r}")
@@ -375,17 +362,18 @@ class SimplexSplineRegressor(*_Bases):
         elif not isinstance(tri, str) or tri not in TRIANGULATIONS:
             raise InputError(f"triangulation must be one of {TRIANGULATIONS} or a "
                              f"Triangulation, got {tri!r}")
-        if not _is_int(self.min_points) or self.min_points < 1:
+        if not is_int(self.min_points) or self.min_points < 1:
             raise InputError(f"min_points must be an integer >= 1, got {self.min_points!r}")
         ridge = self.ridge
         if (isinstance(ridge, bool) or not isinstance(ridge, numbers.Real)
                 or not np.isfinite(ridge) or ridge < 0):
             raise InputError(f"ridge must be a finite number >= 0, got {ridge!r}")
-        if not isinstance(self.outside, str) or self.outside not in OUTSIDE:
-            raise InputError(f"outside must be one of {OUTSIDE}, got {self.outside!r}")
+        if not isinstance(self.outside, str):
+            raise InputError(f"outside must be one of {AERO_POLICIES}, got {self.outside!r}")
+        check_policy(self.outside, AERO_POLICIES)
         if not isinstance(self.scale, (bool, np.bool_)):
             raise InputError(f"scale must be True or False, got {self.scale!r}")
-        if not _is_int(self.max_coefficients) or self.max_coefficients < 1:
+        if not is_int(self.max_coefficients) or self.max_coefficients < 1:
             raise InputError(f"max_coefficients must be an integer >= 1, got "
                              f"{self.max_coefficients!r}")
         return {"degree": degree, "continuity": int(continuity),
@@ -498,7 +486,7 @@ class SimplexSplineRegressor(*_Bases):
         SimplexSpline
         """
         self._check_fitted()
-        if not _is_int(output) or not 0 <= output < self.n_outputs_:
+        if not is_int(output) or not 0 <= output < self.n_outputs_:
             raise InputError(f"output must be an integer in 0..{self.n_outputs_ - 1}, got "
                              f"{output!r}")
         spline = self.splines_[output]
@@ -576,11 +564,11 @@ class SimplexSplineRegressor(*_Bases):
             raise InputError(f"{type(self).__name__} requires y to be passed, but the target "
                              "y is None")
         if HAVE_SKLEARN:
-            out = _sk_call(self, X, y, reset=True, multi_output=True, y_numeric=True)
+            out = sk_call(self, X, y, reset=True, multi_output=True, y_numeric=True)
             X, Y = out
         else:
-            X = _fallback_validate_X(self, X, reset=True)
-            Y = _fallback_validate_y(y, len(X))
+            X = fallback_validate_X(self, X, reset=True)
+            Y = fallback_validate_y(y, len(X))
         X = np.asarray(X, dtype=float)
         Y = np.asarray(Y, dtype=float)
         if Y.ndim == 2 and Y.shape[1] == 0:
@@ -589,7 +577,7 @@ class SimplexSplineRegressor(*_Bases):
 
     def _validate_X(self, X):
         if HAVE_SKLEARN:
-            X = _sk_call(self, X, None, reset=False)
+            X = sk_call(self, X, None, reset=False)
         else:
-            X = _fallback_validate_X(self, X, reset=False)
+            X = fallback_validate_X(self, X, reset=False)
         return np.asarray(X, dtype=float)

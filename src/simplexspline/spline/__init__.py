@@ -12,8 +12,7 @@ from simplexspline.spline.bform import (
 )
 from simplexspline.spline.continuity import smoothness_matrix
 from simplexspline.spline.fit.normal_equations import NormalEquations
-from simplexspline.spline.space import SplineSpace
-from simplexspline.spline.function import SimplexSpline
+from simplexspline.spline.space import SimplexSpline, SplineSpace
 from simplexspline.spline.geometry.triangulation import Facets, Triangulation
 
 __all__ = [

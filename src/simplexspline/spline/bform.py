@@ -150,7 +150,7 @@ def multi_index_lookup(kappa: np.ndarray, d: int) -> np.ndarray:
 
 
 @lru_cache(maxsize=256)
-def _scale(n: int, d: int) -> np.ndarray:
+def scale_factors(n: int, d: int) -> np.ndarray:
     """The B-form scale factors d!/kappa! in Eq. 11 order."""
     kap = _multi_indices(n, d)
     fact = np.array([factorial(k) for k in range(d + 1)], dtype=float)
@@ -160,7 +160,7 @@ def _scale(n: int, d: int) -> np.ndarray:
 
 
 @lru_cache(maxsize=256)
-def _monomial_plan(n: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+def monomial_plan(n: int, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Monomial b^kappa (|kappa| = k) = b^(kappa - e_f) * b_f with f its first non-zero slot.
 
     Returns (parent positions in the degree k-1 list, f) for every degree-k multi-index.
@@ -174,7 +174,7 @@ def _monomial_plan(n: int, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @lru_cache(maxsize=256)
-def _step_table(n: int, d: int) -> np.ndarray:
+def step_table(n: int, d: int) -> np.ndarray:
     """Index table for one de Casteljau step from degree d to d - 1.
 
     Row k (a multi-index of degree d - 1) holds the positions of kappa_k + e_i, i = 0..n,
@@ -223,11 +223,11 @@ def basis_values_t(bt: np.ndarray, d: int) -> np.ndarray:
         return np.ones((1, npts))
     mono = bt.copy()  # degree 1: b_i
     for k in range(2, d + 1):
-        parent, first = _monomial_plan(n, k)
+        parent, first = monomial_plan(n, k)
         nxt = np.empty((len(parent), npts))
         np.multiply(mono[parent], bt[first], out=nxt)
         mono = nxt
-    mono *= _scale(n, d)[:, None]
+    mono *= scale_factors(n, d)[:, None]
     return mono
 
 
@@ -250,7 +250,7 @@ def de_casteljau_step(c: np.ndarray, lam: np.ndarray, d: int) -> np.ndarray:
     ndarray, shape (..., d_hat(d - 1))
     """
     n = lam.shape[-1] - 1
-    table = _step_table(n, d)
+    table = step_table(n, d)
     return np.einsum("...ki,...i->...k", c[..., table], lam)
 
 

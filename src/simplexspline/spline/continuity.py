@@ -29,6 +29,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 
 from simplexspline.spline.bform import basis_values, multi_index_lookup, multi_indices, num_basis
+from simplexspline.spline.inputs import check_degree
 
 __all__ = [
     "SmoothnessSystem",
@@ -337,8 +338,6 @@ def smoothness_matrix(tri, d: int, r: int, reduce: bool = True) -> sp.csr_matrix
         Column ``j*d_hat + k`` is B-coefficient ``k`` (Eq. 11 order) of simplex ``j``
         (Eq. 24). ``H @ c == 0`` iff the spline with coefficients ``c`` is C^r.
     """
-    from simplexspline.spline.inputs import check_degree
-
     d, r = check_degree(d, r)
     cond = build_conditions(tri, d, r)
     if not reduce:

@@ -7,4 +7,6 @@ from simplexspline._deprecation import deprecated_module
 
 __getattr__, __dir__ = deprecated_module(
     __name__, "simplexspline.spline.formats.model_file",
-    ['FORMAT', 'VERSION', 'VARYING_FORMAT', 'STATS_PREFIX', 'atomic_write', 'save_spline', 'load_spline'])
+    ['FORMAT', 'VERSION', 'VARYING_FORMAT', 'STATS_PREFIX', 'save_spline'],
+    elsewhere={"load_spline": "simplexspline.spline.formats.loading",
+               "atomic_write": "simplexspline._files"})

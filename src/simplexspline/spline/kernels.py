@@ -24,7 +24,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from simplexspline.spline.bform import _monomial_plan, _scale
+from simplexspline.spline.bform import monomial_plan, scale_factors
+from simplexspline.errors import InputError
 
 __all__ = ["HAVE_NUMBA", "one_blas_thread", "thread_count", "in_parallel", "basis_plan", "grid_locate", "basis_cols", "sorted_design_t", "evaluate",
            "extend_add", "gram_blocks", "fused_normal"]
@@ -55,8 +56,6 @@ def thread_count(npoints: int, threads: int | None = None,
     ``min_points`` points, else ``SIMPLEXSPLINE_THREADS`` or the CPUs this process may use
     (at most 8).
     """
-    from simplexspline.errors import InputError
-
     if threads is not None:
         if int(threads) < 1:
             raise InputError(f"threads must be >= 1, got {threads!r}")
@@ -117,14 +116,14 @@ def basis_plan(n: int, d: int):
     (n, d) (shared arrays: do not modify)."""
     parents, firsts, offsets = [], [], [0]
     for k in range(2, d + 1):
-        p, f = _monomial_plan(n, k)
+        p, f = monomial_plan(n, k)
         parents.append(p)
         firsts.append(f)
         offsets.append(offsets[-1] + len(p))
     cat = (lambda a: np.concatenate(a).astype(np.int64)) if parents else (
         lambda a: np.zeros(0, dtype=np.int64))
     return cat(parents), cat(firsts), np.asarray(offsets, dtype=np.int64), np.asarray(
-        _scale(n, d), dtype=float)
+        scale_factors(n, d), dtype=float)
 
 
 if HAVE_NUMBA:  # pragma: no cover - compiled

@@ -37,8 +37,14 @@ from simplexspline.spline.bform import (
     num_basis,
 )
 from simplexspline.spline.fit.normal_equations import BlockSums
-from simplexspline.spline.function import OUTSIDE_POLICIES, SimplexSpline
+from simplexspline.spline.continuity import build_conditions
+from simplexspline.spline.fit.constrained import global_points, solve_constrained
+from simplexspline.spline.fit.penalty import penalty_blocks
+from simplexspline.spline.formats.model_file import ModelRecord, read_model, save_spline
+from simplexspline.spline.geometry.outside import locate
 from simplexspline.spline.inputs import as_points, as_values, as_weights
+from simplexspline.spline.space import SimplexSpline
+from simplexspline.spline.fit.penalty import solve_penalized
 
 __all__ = ["VaryingCoefficientSpace", "VaryingNormalEquations", "VaryingCoefficientSpline",
            "constancy_conditions"]
@@ -101,8 +107,6 @@ class _TermSystem:
     variables, the conditions that keep them constant along the others."""
 
     def __init__(self, space, nterms: int, excluded=None, facets=None):
-        from simplexspline.spline.continuity import build_conditions
-        from simplexspline.spline.fit.constrained import _global_points
 
         base = space.system
         tri = space.triangulation
@@ -150,7 +154,7 @@ class _TermSystem:
             Ae.sum_duplicates()
             A = sp.vstack([A, Ae]).tocsr()
         self.A_all = A
-        pts = _global_points(tri, space.degree, base.gather, M)
+        pts = global_points(tri, space.degree, base.gather, M)
         self.solver_cache: dict = {"points": np.tile(pts, (K, 1))}
 
 
@@ -370,8 +374,6 @@ class VaryingCoefficientSpace:
         """Per-simplex penalty blocks of every term, shape (J, K*d_hat, K*d_hat): the plain
         space's blocks (:func:`~simplexspline.spline.fit.penalty.penalty_blocks`) on the
         diagonal."""
-        from simplexspline.spline.fit.penalty import penalty_blocks
-
         P = penalty_blocks(self.triangulation, self.space.degree, penalty)
         J, dh, _ = P.shape
         out = np.zeros((J, self.nterms * dh, self.nterms * dh))
@@ -389,8 +391,6 @@ class VaryingCoefficientSpace:
         weight for all terms: put the multipliers on comparable scales) and ``penalty``
         (a kind, applied to every term, or blocks of shape (J, K*d_hat, K*d_hat)).
         """
-        from simplexspline.spline.fit.constrained import solve_constrained
-
         if not isinstance(normal_equations, VaryingNormalEquations):
             raise InputError("solve() takes a VaryingNormalEquations accumulator (from "
                              "VaryingCoefficientSpace.normal_equations)")
@@ -400,8 +400,6 @@ class VaryingCoefficientSpace:
             coef, info = solve_constrained(normal_equations, self.system,
                                            on_insufficient=on_insufficient, ridge=ridge)
         else:
-            from simplexspline.spline.fit.penalty import solve_penalized
-
             P = self.penalty_blocks(penalty) if isinstance(penalty, str) else penalty
             coef, info = solve_penalized(normal_equations, self.system, penalty=P,
                                          smoothing=smoothing,
@@ -454,18 +452,8 @@ class VaryingCoefficientSpline:
                 f"ndim={self.ndim}, nsimplex={self.triangulation.nsimplex})")
 
     def _locate(self, z, outside: str):
-        if outside not in OUTSIDE_POLICIES:
-            raise InputError(f"outside must be one of {OUTSIDE_POLICIES}, got {outside!r}")
-        tri = self.triangulation
-        pts = as_points(z, name="z", ndim=tri.ndim)
-        sid = tri.locate(pts)
-        bad = np.nonzero(sid < 0)[0]
-        if len(bad) and outside == "raise":
-            raise OutsideDomainError(
-                f"{len(bad)} of {len(pts)} points lie outside the triangulation (first rows: "
-                f"{bad[:5].tolist()}); use outside='nan' or 'extrapolate'", bad)
-        if len(bad) and outside == "extrapolate":
-            sid[bad] = tri.nearest(pts[bad])
+        pts = as_points(z, name="z", ndim=self.triangulation.ndim)
+        sid, _ = locate(self.triangulation, pts, outside)
         return pts, sid
 
     def term_values(self, z, *, outside: str = "nan") -> np.ndarray:
@@ -507,16 +495,29 @@ class VaryingCoefficientSpline:
 
     def save(self, path):
         """Write the model (``.json`` or ``.npz``, atomically; see docs/model-format.md)."""
-        from simplexspline.spline.formats.model_file import save_spline
-
         return save_spline(self, path)
 
     @staticmethod
     def load(path) -> VaryingCoefficientSpline:
-        from simplexspline.spline.formats.model_file import load_spline
-
-        out = load_spline(path)
-        if not isinstance(out, VaryingCoefficientSpline):
+        """Load a model file written by :meth:`save`."""
+        record = read_model(path)
+        if not record.varying:
             raise InputError(f"{path} holds a plain SimplexSpline, not a varying-coefficient "
                              "model: load it with SimplexSpline.load")
-        return out
+        return VaryingCoefficientSpline.from_record(record)
+
+    @classmethod
+    def from_record(cls, record: ModelRecord) -> VaryingCoefficientSpline:
+        """The varying-coefficient spline a model file holds (read by
+        :func:`~simplexspline.spline.formats.model_file.read_model`)."""
+        head = record.header
+
+        def make(tri):
+            coef = np.asarray(record.coefficients, dtype=float)
+            shape = (tri.nsimplex, int(head["nterms"]), int(head["nbasis"]))
+            if coef.shape != shape:
+                raise record.error(f"coefficients of shape {coef.shape}, expected {shape}")
+            return cls(tri, head["degree"], head["continuity"], coef,
+                       metadata=head.get("metadata") or {})
+
+        return record.build(make)

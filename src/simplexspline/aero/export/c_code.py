@@ -24,17 +24,10 @@ from simplexspline.aero.export.lookup_tables import provenance_summary
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError
-from simplexspline.spline.formats.c_export import (
-    RESERVED,
-    CSource,
-    assemble,
-    c_array,
-    c_comment,
-    c_core,
-    c_identifier,
-)
-from simplexspline.spline.formats.model_file import load_spline
-from simplexspline.spline.function import SimplexSpline
+from simplexspline.spline.formats.c_export import RESERVED, CSource, assemble, c_identifier
+from simplexspline.spline.formats.c_templates import c_array, c_comment, c_core
+from simplexspline.spline.formats.loading import load_spline
+from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.geometry.outside import EXPORT_POLICIES, check_policy
 
 __all__ = ["generate_aero_c", "load_exportable"]

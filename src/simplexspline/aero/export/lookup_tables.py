@@ -31,7 +31,7 @@ from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError
 from simplexspline.spline.formats.c_export import reference_evaluate
-from simplexspline.spline.function import SimplexSpline
+from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.geometry.outside import EXPORT_POLICIES, check_policy
 
 __all__ = ["JSBSIM_PROPERTIES", "MAX_TABLE_POINTS", "TABLE_FORMAT", "TABLE_VERSION",

@@ -25,7 +25,7 @@ from simplexspline.aero.modelling.structure import (
     multiplier_values,
 )
 from simplexspline.errors import InputError, ModelFileError
-from simplexspline.spline.function import SimplexSpline
+from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.varying import VaryingCoefficientSpline
 
 __all__ = ["AERO_FORMAT", "AERO_VERSION", "AeroModel"]
@@ -228,7 +228,7 @@ class AeroModel:
     @classmethod
     def load(cls, path) -> AeroModel:
         """Read a model written by :meth:`save`."""
-        from simplexspline.spline.formats.model_file import load_spline
+        from simplexspline.spline.formats.loading import load_spline
 
         spline = load_spline(path)
         meta = dict(spline.metadata)

@@ -122,7 +122,7 @@ class _CholeskySymbolic:
     only, so it is reused across fits on one spline space)."""
 
     def __init__(self, P: sp.csr_matrix, coords: np.ndarray, leaf: int):
-        self.perm, tree = _nested_dissection(P, coords, leaf)
+        self.perm, tree = nested_dissection(P, coords, leaf)
         # Permuted pattern whose values are positions in P.data.
         pos = sp.csr_matrix((np.arange(1, P.nnz + 1, dtype=float), P.indices, P.indptr),
                             shape=P.shape)
@@ -147,7 +147,7 @@ class _CholeskySymbolic:
                                [(c, np.searchsorted(F, u)) for c, u in zip(kids, child_u)]))
 
 
-def _nested_dissection(P: sp.csr_matrix, coords: np.ndarray, leaf: int):
+def nested_dissection(P: sp.csr_matrix, coords: np.ndarray, leaf: int):
     """Elimination order and tree: ``perm`` and nodes ``(start, end, children)`` in
     postorder (node t owns the unknowns ``perm[start:end]``)."""
     owns: list[np.ndarray] = []

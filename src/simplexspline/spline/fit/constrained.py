@@ -36,15 +36,7 @@ from simplexspline.errors import InputError, InsufficientDataError
 from simplexspline.spline import kernels
 from simplexspline.spline.bform import bnet_points
 
-# The sparse Cholesky factorisation has its own module; its names stay importable from here,
-# and ``_preconditioner`` looks ``SparseCholesky`` up in this module's namespace.
-from simplexspline.spline.fit.cholesky import (  # noqa: F401
-    ND_LEAF,
-    SERIAL_FRONT,
-    SparseCholesky,
-    _CholeskySymbolic,
-    _nested_dissection,
-)
+from simplexspline.spline.fit.cholesky import SparseCholesky
 
 __all__ = ["POLICIES", "SolveInfo", "solve_constrained"]
 
@@ -281,7 +273,7 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
     cache = getattr(system, "solver_cache", None)
     coords = cache.get("points") if cache is not None else None
     if coords is None:
-        coords = _global_points(ne.triangulation, ne.degree, gather, M)
+        coords = global_points(ne.triangulation, ne.degree, gather, M)
         if cache is not None:
             cache["points"] = coords
     g = _al_solve(Qg.tocsc(), qg, A, diag_mean, coords,
@@ -354,7 +346,7 @@ REFINE_MAXITER = 40
 REFINE_TOL = 1e-8
 
 
-def _global_points(tri, degree: int, gather: np.ndarray, M: int) -> np.ndarray:
+def global_points(tri, degree: int, gather: np.ndarray, M: int) -> np.ndarray:
     """Position of every C^0-reduced coefficient (its B-net point), shape (M, n): what the
     nested-dissection ordering of the sparse Cholesky factorisation cuts along."""
     pts = bnet_points(tri.vertices[tri.simplices], degree).reshape(-1, tri.ndim)

@@ -31,6 +31,7 @@ import scipy.sparse.linalg as spla
 from simplexspline.errors import InputError, InsufficientDataError
 from simplexspline.spline import kernels
 from simplexspline.spline.bform import bnet_points
+from simplexspline.spline.fit.cholesky import SparseCholesky
 
 __all__ = [
     "DEFAULT_PROBES",
@@ -219,8 +220,6 @@ def _kkt_solver(K11: sp.csr_matrix, A: sp.csr_matrix, coords: np.ndarray | None)
     fac = None
     if coords is not None:
         try:
-            from simplexspline.spline.fit.constrained import SparseCholesky
-
             fac = SparseCholesky(Pc, coords).solve
         except (ImportError, TypeError, np.linalg.LinAlgError):
             fac = None
@@ -302,7 +301,7 @@ class _HutchinsonGCV:
         return rss, float(est.mean()), float(est.std(ddof=1) / np.sqrt(len(est)))
 
 
-def _scale(ne, P: np.ndarray) -> float:
+def penalty_scale(ne, P: np.ndarray) -> float:
     trq = float(np.einsum("jkk->", ne.XtWX))
     trp = float(np.einsum("jkk->", P))
     if trp <= 0:
@@ -311,7 +310,7 @@ def _scale(ne, P: np.ndarray) -> float:
     return trq / trp
 
 
-def _evaluator(ne, system, P, ridge_abs, method, probes, seed):
+def gcv_evaluator(ne, system, P, ridge_abs, method, probes, seed):
     with kernels.one_blas_thread():
         return _make_evaluator(ne, system, P, ridge_abs, method, probes, seed)
 
@@ -361,11 +360,11 @@ def choose_smoothing(ne, system, P, *, ridge_abs: float = 0.0, method: str = "au
     Regularization
         With ``chosen_by='gcv'``; ``rss`` is the search's value at the chosen weight.
     """
-    scale = _scale(ne, P)
+    scale = penalty_scale(ne, P)
     grid = np.sort(np.asarray(SMOOTHING_GRID if grid is None else grid, dtype=float))
     if grid.ndim != 1 or len(grid) < 2 or np.any(grid <= 0) or not np.all(np.isfinite(grid)):
         raise InputError("grid must hold at least two finite relative weights > 0")
-    ev = _evaluator(ne, system, P, ridge_abs, method, probes, seed)
+    ev = gcv_evaluator(ne, system, P, ridge_abs, method, probes, seed)
     N = int(ne.npoints)
     seen: dict = {}
 
@@ -433,7 +432,7 @@ def effective_dof(ne, system, P, lam: float, *, ridge_abs: float = 0.0,
     std : float
         Standard error of the estimate (0 for the exact method).
     """
-    ev = _evaluator(ne, system, P, ridge_abs, method, probes, seed)
+    ev = gcv_evaluator(ne, system, P, ridge_abs, method, probes, seed)
     with kernels.one_blas_thread():
         _, edf, std = ev.evaluate(float(lam))
     return edf, std

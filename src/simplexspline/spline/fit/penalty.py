@@ -40,25 +40,18 @@ from simplexspline.spline import kernels
 from simplexspline.spline.geometry.barycentric import direction_coordinates
 from simplexspline.spline.bform import multi_index_lookup, multi_indices, num_basis
 
-# The choice of the weight by GCV has its own module; its names stay importable from here.
-from simplexspline.spline.fit.gcv import (  # noqa: F401
+from simplexspline.spline.fit.gcv import (
     DEFAULT_PROBES,
     DENSE_MAX,
-    SMOOTHING_GRID,
     Regularization,
-    _evaluator,
-    _ExactGCV,
-    _gathered,
-    _golden,
-    _HutchinsonGCV,
-    _kkt_solver,
-    _make_evaluator,
-    _nullspace,
-    _scale,
+    gcv_evaluator,
+    penalty_scale,
     choose_smoothing,
     effective_dof,
     gcv_score,
 )
+from simplexspline.spline.geometry.barycentric import simplex_transforms, simplex_volumes
+from simplexspline.spline.fit.constrained import DEFAULT_RIDGE, POLICIES, solve_constrained
 
 __all__ = [
     "PENALTIES",
@@ -193,8 +186,6 @@ def energy_matrix(vertices, degree: int, order: int = 2) -> np.ndarray:
     >>> float(np.round(c @ E @ c, 12))                   # int (p_yy)^2 = 4 * area
     2.0
     """
-    from simplexspline.spline.geometry.barycentric import simplex_transforms, simplex_volumes
-
     v = np.asarray(vertices, dtype=float)
     if v.ndim != 2 or v.shape[0] != v.shape[1] + 1:
         raise InputError(f"vertices must have shape (n+1, n), got {v.shape}")
@@ -300,8 +291,6 @@ def solve_penalized(ne, system, *, penalty="energy", smoothing="gcv",
     info : SolveInfo
         With ``info.regularization`` a :class:`Regularization`.
     """
-    from simplexspline.spline.fit.constrained import DEFAULT_RIDGE, POLICIES, solve_constrained
-
     if on_insufficient not in POLICIES:
         raise InputError(f"on_insufficient must be one of {POLICIES}, got {on_insufficient!r}")
     if ridge is not None and (not np.isfinite(ridge) or ridge < 0):
@@ -337,12 +326,12 @@ def solve_penalized(ne, system, *, penalty="energy", smoothing="gcv",
                 f"smoothing must be 'gcv' or a number >= 0, got {smoothing!r}") from None
         if not np.isfinite(s) or s < 0:
             raise InputError(f"smoothing must be 'gcv' or a number >= 0, got {smoothing!r}")
-        scale = _scale(ne, P)
+        scale = penalty_scale(ne, P)
         reg = Regularization(penalty=name, smoothing=s, lam=s * scale, scale=scale,
                              npoints=int(ne.npoints))
         if method == "exact" or (method == "auto" and system.nglobal <= DENSE_MAX) or (
                 method == "hutchinson"):
-            ev = _evaluator(ne, system, P, ridge_abs, method, probes, 0)
+            ev = gcv_evaluator(ne, system, P, ridge_abs, method, probes, 0)
             with kernels.one_blas_thread():
                 rss, reg.edf, reg.edf_std = ev.evaluate(reg.lam)
             reg.gcv = gcv_score(rss, reg.edf, reg.npoints)
@@ -354,7 +343,7 @@ def solve_penalized(ne, system, *, penalty="energy", smoothing="gcv",
     return coef, info
 
 
-def _fit_penalty(spline):
+def fit_penalty(spline):
     """Absolute penalty blocks ``lam * P`` of a penalised fit (from
     ``spline.info.regularization``; the blocks from the space's solver cache when
     :func:`solve_penalized` stored them there), or None for an unpenalised fit."""

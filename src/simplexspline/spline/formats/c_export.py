@@ -43,29 +43,16 @@ from pathlib import Path
 
 import numpy as np
 
+from simplexspline._files import write_bytes
 from simplexspline.errors import InputError
-from simplexspline.spline.formats.c_templates import (  # noqa: F401 - re-exported
-    _BUCKET_LOCATE,
-    _CORE,
-    _GRID_LOCATE,
-    _HELPERS,
-    NEAREST_K,
-    _fill,
-    _num,
-    _piece,
-    _piece_body,
-    c_array,
-    c_comment,
-    c_core,
-    domain_box,
-)
+from simplexspline.spline.formats.c_templates import fill_template, c_comment, c_core, domain_box
 from simplexspline.spline.geometry.location import INSIDE_TOL, GridLocator
+from simplexspline.spline.geometry.outside import EXPORT_POLICIES, check_policy
+from simplexspline.spline.inputs import as_points
 
-__all__ = ["CSource", "POLICIES", "generate_c", "reference_evaluate", "domain_box",
-           "c_identifier"]
+__all__ = ["CSource", "RESERVED", "assemble", "c_identifier", "generate_c",
+           "reference_evaluate"]
 
-#: Outside policies of the generated code, with their C codes 0, 1, 2.
-POLICIES = ("nan", "clamp", "extrapolate")
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
@@ -131,8 +118,6 @@ class CSource:
         -------
         list of Path
         """
-        from simplexspline.spline.formats.model_file import atomic_write
-
         directory = Path(directory)
         if directory.exists() and not directory.is_dir():
             raise InputError(f"{str(directory)!r} exists and is not a directory")
@@ -143,11 +128,7 @@ class CSource:
         paths = []
         for name, text in self.files.items():
             path = directory / name
-
-            def write(tmp, text=text):
-                with open(tmp, "w", encoding="ascii", newline="\n") as fh:
-                    fh.write(text)
-            atomic_write(path, write)
+            write_bytes(path, text.encode("ascii"))
             paths.append(path)
         return paths
 
@@ -174,8 +155,6 @@ def reference_evaluate(spline, x, *, outside: str = "nan", gradient: bool = True
     outside : ndarray of bool, shape (N,)
         The point lies outside the triangulation (whatever the policy).
     """
-    from simplexspline.spline.inputs import as_points
-
     _check_policy(outside)
     tri = spline.triangulation
     pts = as_points(x, name="x", ndim=tri.ndim)
@@ -190,9 +169,8 @@ def reference_evaluate(spline, x, *, outside: str = "nan", gradient: bool = True
 
 
 def _check_policy(outside: str) -> int:
-    if outside not in POLICIES:
-        raise InputError(f"outside must be one of {POLICIES}, got {outside!r}")
-    return POLICIES.index(outside)
+    """The C code of an outside policy: its position in ``EXPORT_POLICIES`` (0, 1, 2)."""
+    return EXPORT_POLICIES.index(check_policy(outside, EXPORT_POLICIES))
 
 
 # ---------------------------------------------------------------------- public API text
@@ -337,8 +315,8 @@ def generate_c(spline, prefix: str = "spline", *, outside: str = "nan",
     comment = c_comment(text)
     subs = dict(P=prefix, U=prefix.upper(), N=n, J=tri.nsimplex, T=f"{prefix}_impl",
                 DEFAULT=outside.upper())
-    decls = _fill(_SPLINE_DECLS, **subs)
-    impl = c_core(spline, f"{prefix}_impl") + _fill(_SPLINE_DEFS, **subs)
+    decls = fill_template(_SPLINE_DECLS, **subs)
+    impl = c_core(spline, f"{prefix}_impl") + fill_template(_SPLINE_DEFS, **subs)
     return assemble(prefix, comment, decls, impl, single_header=single_header)
 
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from simplexspline.errors import InputError
 from simplexspline.spline import kernels
-from simplexspline.spline.bform import _step_table, num_basis
+from simplexspline.spline.bform import step_table, num_basis
 from simplexspline.spline.geometry.location import INSIDE_TOL, BucketLocator, GridLocator
 
 __all__ = ["NEAREST_K", "c_array", "c_comment", "c_core", "domain_box"]
@@ -96,7 +96,7 @@ def c_comment(text: str, *, width: int = 88) -> str:
     return "\n".join(out) + "\n"
 
 
-def _fill(template: str, **subs) -> str:
+def fill_template(template: str, **subs) -> str:
     """Replace ``@KEY@`` placeholders (``@T@``, the internal tag, may stay for later)."""
     for key, val in subs.items():
         template = template.replace(f"@{key}@", str(val))
@@ -109,7 +109,7 @@ def _fill(template: str, **subs) -> str:
 # ---------------------------------------------------------------------- the core
 def _piece_body(n: int, d: int) -> str:
     """Statements computing g[0..n] (see the module docstring) from b and c."""
-    step = _step_table(n, d)  # (d_hat(d-1), n+1): position of kappa + e_i
+    step = step_table(n, d)  # (d_hat(d-1), n+1): position of kappa + e_i
     m = d - 1
     lines = [f"    for (i = 0; i < {n + 1}; ++i) g[i] = 0.0;"]
     if m == 0:
@@ -135,7 +135,7 @@ def _piece_body(n: int, d: int) -> str:
 
 def _piece(n: int, d: int, dhat: int) -> str:
     if d == 0:
-        return _fill("""
+        return fill_template("""
 static void @T@_piece(long j, const double x[], double *value, double grad[])
 {
     int k;
@@ -145,7 +145,7 @@ static void @T@_piece(long j, const double x[], double *value, double grad[])
 }
 """, N=n)
     levels = "".join(f" q{lv}[{num_basis(n, lv)}]," for lv in range(2, d))
-    return _fill("""
+    return fill_template("""
 static void @T@_piece(long j, const double x[], double *value, double grad[])
 {
     const double *o = @T@_origin + j * @N@;
@@ -279,7 +279,7 @@ static long @T@_nearest(const double x[])
     return out;
 }
 
-static void @T@_fill(double *value, double grad[], double v)
+static void @T@fill_template(double *value, double grad[], double v)
 {
     int k;
     if (value) *value = v;
@@ -297,7 +297,7 @@ static int @T@_core(const double x[], int policy, double *value, double grad[])
     for (k = 0; k < @N@; ++k)
         if (!isfinite(x[k])) policy = -1;
     if (policy < 0 || policy > 2) {
-        @T@_fill(value, grad, NAN);
+        @T@fill_template(value, grad, NAN);
         return -1;
     }
     if (policy == 1) { /* clamp to the domain box, then extrapolate if still outside */
@@ -317,7 +317,7 @@ static int @T@_core(const double x[], int policy, double *value, double grad[])
         return 0;
     }
     if (policy == 0) {
-        @T@_fill(value, grad, NAN);
+        @T@fill_template(value, grad, NAN);
         return 1;
     }
     @T@_piece(@T@_nearest(x), x, value, grad);
@@ -364,7 +364,7 @@ def c_core(spline, tag: str) -> str:
         else:
             parts.append(c_array("int", f"{tag}_gtable", loc.table))
             lookup = f"{tag}_gtable[flat * {nfact} + rank]"
-        locate = _fill(_GRID_LOCATE, LOOKUP=lookup, N=n)
+        locate = fill_template(_GRID_LOCATE, LOOKUP=lookup, N=n)
     elif isinstance(loc, BucketLocator):
         tol = INSIDE_TOL * (loc.upper - loc.lower + 1.0)
         parts += [c_array("double", f"{tag}_inlo", loc.lower - tol),
@@ -374,10 +374,10 @@ def c_core(spline, tag: str) -> str:
                   c_array("long", f"{tag}_nb", loc.nb),
                   c_array("long", f"{tag}_bptr", loc.indptr),
                   c_array("long", f"{tag}_bidx", loc.indices)]
-        locate = _fill(_BUCKET_LOCATE, N=n, TOL=_num(INSIDE_TOL))
+        locate = fill_template(_BUCKET_LOCATE, N=n, TOL=_num(INSIDE_TOL))
     else:  # pragma: no cover - no other locator exists
         raise InputError(f"cannot export a triangulation located by {type(loc).__name__}")
-    helpers = _fill(_HELPERS, N=n, NN=n * n, K=min(NEAREST_K, nsimp), J=nsimp)
+    helpers = fill_template(_HELPERS, N=n, NN=n * n, K=min(NEAREST_K, nsimp), J=nsimp)
     parts += ["\n/* ---- evaluation */\n", _piece(n, d, dhat), helpers, locate,
-              _fill(_CORE, N=n)]
+              fill_template(_CORE, N=n)]
     return "".join(parts).replace("@T@", tag)

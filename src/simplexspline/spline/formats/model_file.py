@@ -1,5 +1,11 @@
 """The open, versioned model file format (JSON or npz; no pickled objects).
 
+This module is the file: it writes a spline's arrays and header (:func:`save_spline`) and
+reads them back as a :class:`ModelRecord` (:func:`read_model`), checking format and
+version; the classes build themselves from a record (``SimplexSpline.load``,
+``VaryingCoefficientSpline.load``, or :func:`~simplexspline.spline.formats.loading.load_spline`
+for either kind).
+
 A model file holds one :class:`~simplexspline.SimplexSpline`:
 
 JSON (``.json``)::
@@ -36,16 +42,23 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import tempfile
 import zipfile
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
+from simplexspline._files import write_bytes
+from simplexspline._version import __version__
 from simplexspline.errors import ModelFileError, SimplexSplineError
+from simplexspline.spline.geometry.triangulation import Triangulation
 
-__all__ = ["save_spline", "load_spline", "FORMAT", "VERSION", "atomic_write"]
+T = TypeVar("T")
+
+__all__ = ["FORMAT", "STATS_PREFIX", "VARYING_FORMAT", "VERSION", "ModelRecord", "read_model",
+           "save_spline"]
 
 FORMAT = "simplexspline.model"
 VERSION = 1
@@ -57,36 +70,62 @@ VARYING_FORMAT = "simplexspline.varying-model"
 STATS_PREFIX = "statistics_"
 
 
-def atomic_write(path, write) -> None:
-    """Call ``write(tmp_path)`` for a temporary file next to ``path``, then rename it.
+@dataclass(frozen=True)
+class ModelRecord:
+    """The contents of a model file, before any object is built from them.
 
-    A failed or interrupted write never leaves a partial file at ``path`` (nor the
-    temporary file).
+    Attributes
+    ----------
+    path : Path
+        The file read (for messages).
+    header : dict
+        The JSON header: ``format``, ``version``, ``degree``, ``continuity``, ``ndim``,
+        ``nbasis``, ``nsimplex``, ``triangulation_kind``, ``metadata`` (and ``nterms`` for
+        varying-coefficient models).
+    triangulation : dict of str to ndarray
+        The arrays of :meth:`Triangulation.from_arrays` plus ``"kind"``.
+    coefficients : ndarray, shape (J, d_hat) or (J, K, d_hat)
+    statistics : dict or None
+        The optional statistics section (JSON scalars and, in JSON files, its arrays).
+    statistics_arrays : dict of str to ndarray
+        The statistics arrays of npz files (names without :data:`STATS_PREFIX`).
     """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
+    path: Path
+    header: dict
+    triangulation: dict
+    coefficients: np.ndarray
+    statistics: dict | None
+    statistics_arrays: dict
+    has_statistics: bool = False
 
-def _write_bytes(data: bytes):
-    def write(tmp):
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-    return write
+    @property
+    def varying(self) -> bool:
+        """True for a varying-coefficient model (:data:`VARYING_FORMAT`)."""
+        return self.header["format"] == VARYING_FORMAT
+
+    def error(self, message: str) -> ModelFileError:
+        """A :class:`ModelFileError` about this file."""
+        return ModelFileError(f"{self.path}: {message}")
+
+    def build(self, make: Callable[[Triangulation], T]) -> T:
+        """``make(triangulation)`` with the file's triangulation: the object the file holds.
+
+        Errors in the contents (an invalid triangulation, coefficients of the wrong shape,
+        missing keys) become a :class:`ModelFileError` naming the file.
+        """
+        try:
+            return make(Triangulation.from_arrays(self.triangulation))
+        except ModelFileError:
+            raise
+        except SimplexSplineError as exc:
+            raise self.error(f"invalid model contents: {exc}") from None
+        except (KeyError, TypeError, ValueError) as exc:
+            raise self.error(f"corrupt or unreadable model file ({type(exc).__name__}: "
+                             f"{exc})") from None
 
 
 def _header(spline) -> dict:
-    from simplexspline._version import __version__
-
     varying = spline.coefficients.ndim == 3
     head = {
         "format": VARYING_FORMAT if varying else FORMAT,
@@ -124,7 +163,7 @@ def save_spline(spline, path, *, statistics: bool = True) -> Path:
         json.dumps(header["metadata"])
     except (TypeError, ValueError) as exc:
         raise ModelFileError(f"metadata must be JSON-serialisable: {exc}") from None
-    unc = getattr(spline, "_uncertainty", None) if statistics else None
+    unc = getattr(spline, "uncertainty", None) if statistics else None
     stats_arrays = {}
     if unc is not None:
         header["statistics"], stats_arrays = unc.state()
@@ -136,14 +175,14 @@ def save_spline(spline, path, *, statistics: bool = True) -> Path:
             doc["statistics"] = dict(header["statistics"],
                                      **{k: v.tolist() for k, v in stats_arrays.items()})
         data = json.dumps(doc, allow_nan=False).encode()
-        atomic_write(path, _write_bytes(data))
+        write_bytes(path, data)
     else:
         arrays["coefficients"] = spline.coefficients
         arrays.update({f"{STATS_PREFIX}{k}": v for k, v in stats_arrays.items()})
         arrays["header"] = np.array(json.dumps(header, allow_nan=False))
         buf = io.BytesIO()
         np.savez(buf, **arrays)
-        atomic_write(path, _write_bytes(buf.getvalue()))
+        write_bytes(path, buf.getvalue())
     return path
 
 
@@ -158,69 +197,47 @@ def _check_header(doc: dict, path: Path) -> None:
             f"(which reads version {VERSION}); upgrade simplexspline or re-save the model")
 
 
-def _load_statistics(spline, section, arrays: dict, path: Path):
-    """The optional statistics section as an Uncertainty (ModelFileError if invalid)."""
-    from simplexspline.spline.uncertainty.intervals import Uncertainty
+def read_model(path) -> ModelRecord:
+    """Read a model file (either format, either kind) into a :class:`ModelRecord`.
 
-    if not isinstance(section, dict):
-        raise ModelFileError(f"{path}: the statistics section must be an object")
-    try:
-        stats_arrays = {k[len(STATS_PREFIX):]: v for k, v in arrays.items()
-                        if k.startswith(STATS_PREFIX)}
-        return Uncertainty.from_state(spline.space, section, stats_arrays)
-    except (SimplexSplineError, KeyError, TypeError, ValueError) as exc:
-        raise ModelFileError(f"{path}: invalid statistics section: {exc}") from None
+    Checks the format and version header; builds no objects (the classes do:
+    :meth:`SimplexSpline.load`, :meth:`VaryingCoefficientSpline.load`,
+    :func:`~simplexspline.spline.formats.loading.load_spline`).
 
-
-def load_spline(path):
-    """Read a model file written by :func:`save_spline`."""
-    from simplexspline.spline.function import SimplexSpline
-    from simplexspline.spline.geometry.triangulation import Triangulation
-
+    Raises
+    ------
+    ModelFileError
+        Missing, corrupt or foreign file, or an unsupported version.
+    """
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f"model file {str(path)!r} does not exist")
     try:
+        stats_arrays = {}
         if path.suffix.lower() == ".npz":
             with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
                 doc = json.loads(str(z["header"]))
                 _check_header(doc, path)
                 arrays = {k: z[k] for k in z.files if k != "header"}
+            stats_arrays = {k[len(STATS_PREFIX):]: v for k, v in arrays.items()
+                            if k.startswith(STATS_PREFIX)}
+            coefficients = arrays["coefficients"]
+            tri = {k: v for k, v in arrays.items()
+                   if k != "coefficients" and not k.startswith(STATS_PREFIX)}
         else:
             doc = json.loads(path.read_text(encoding="utf-8"))
             _check_header(doc, path)
-            arrays = {k: np.asarray(v) for k, v in doc["triangulation"].items()}
-            arrays["coefficients"] = np.asarray(doc["coefficients"], dtype=float)
-            if isinstance(doc.get("statistics"), dict):
-                from simplexspline.spline.uncertainty.intervals import ARRAYS
-
-                for k in ARRAYS:
-                    if k in doc["statistics"]:
-                        arrays[STATS_PREFIX + k] = np.asarray(doc["statistics"][k])
-        tri_data = {k: v for k, v in arrays.items()
-                    if k != "coefficients" and not k.startswith(STATS_PREFIX)}
-        tri_data["kind"] = doc.get("triangulation_kind", "explicit")
-        tri = Triangulation.from_arrays(tri_data)
-        if doc["format"] == VARYING_FORMAT:
-            from simplexspline.spline.varying import VaryingCoefficientSpline
-
-            coef = np.asarray(arrays["coefficients"], dtype=float)
-            shape = (tri.nsimplex, int(doc["nterms"]), int(doc["nbasis"]))
-            if coef.shape != shape:
-                raise ModelFileError(f"{path}: coefficients of shape {coef.shape}, expected "
-                                     f"{shape}")
-            return VaryingCoefficientSpline(tri, doc["degree"], doc["continuity"], coef,
-                                            metadata=doc.get("metadata") or {})
-        spline = SimplexSpline(tri, doc["degree"], doc["continuity"],
-                               arrays["coefficients"], metadata=doc.get("metadata") or {})
-        if "statistics" in doc:
-            spline._uncertainty = _load_statistics(spline, doc["statistics"], arrays, path)
-        return spline
+            tri = {k: np.asarray(v) for k, v in doc["triangulation"].items()}
+            coefficients = np.asarray(doc["coefficients"], dtype=float)
+        tri["kind"] = doc.get("triangulation_kind", "explicit")
+        statistics = doc.get("statistics")
+        header = {k: v for k, v in doc.items()
+                  if k not in ("triangulation", "coefficients", "statistics")}
+        return ModelRecord(path, header, tri, coefficients, statistics, stats_arrays,
+                           has_statistics="statistics" in doc)
     except ModelFileError:
         raise
-    except SimplexSplineError as exc:
-        raise ModelFileError(f"{path}: invalid model contents: {exc}") from None
-    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile,
-            json.JSONDecodeError, EOFError) as exc:
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, zipfile.BadZipFile,
+            EOFError) as exc:
         raise ModelFileError(f"{path}: corrupt or unreadable model file "
                              f"({type(exc).__name__}: {exc})") from None

@@ -18,6 +18,7 @@ from math import factorial
 import numpy as np
 
 from simplexspline.spline.geometry.barycentric import barycentric
+from simplexspline.spline import kernels
 
 __all__ = ["GridLocator", "BucketLocator", "kuhn_permutations", "INSIDE_TOL"]
 
@@ -66,8 +67,6 @@ class GridLocator:
 
     def locate(self, x: np.ndarray) -> np.ndarray:
         """Simplex index of each point, ``-1`` outside; x has shape (N, n)."""
-        from simplexspline.spline import kernels
-
         if kernels.HAVE_NUMBA and len(x) > 0:
             return kernels.grid_locate(x, self.lower, self.step, self.shape, self.table,
                                        self._nfact, INSIDE_TOL)

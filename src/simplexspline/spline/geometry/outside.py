@@ -16,10 +16,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from simplexspline.errors import InputError
+import numpy as np
+
+from simplexspline.errors import InputError, OutsideDomainError
 
 __all__ = ["AERO_POLICIES", "EXPORT_POLICIES", "OUTSIDE_POLICIES", "SPLINE_POLICIES",
-           "check_policy"]
+           "check_policy", "locate"]
 
 #: Every outside policy of the project.
 OUTSIDE_POLICIES: tuple[str, ...] = ("nan", "raise", "extrapolate", "clamp")
@@ -50,3 +52,42 @@ def check_policy(policy: str, allowed: Sequence[str] = SPLINE_POLICIES, *,
     if policy not in allowed:
         raise InputError(f"{name} must be one of {tuple(allowed)}, got {policy!r}")
     return policy
+
+
+def locate(triangulation, points: np.ndarray, outside: str = "nan"
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The simplex of each point under an outside policy of :data:`SPLINE_POLICIES`.
+
+    The one place where evaluating APIs (splines, varying-coefficient splines, uncertainty
+    bounds) turn point location and an ``outside=`` policy into simplex indices.
+
+    Parameters
+    ----------
+    triangulation : Triangulation
+        Anything with ``locate(points)`` (-1 outside) and ``nearest(points)``.
+    points : ndarray, shape (N, n)
+        Checked, finite points.
+    outside : {'nan', 'raise', 'extrapolate'}, default 'nan'
+        ``'nan'``: outside points get simplex -1 and ``valid`` False; ``'raise'``:
+        :class:`~simplexspline.errors.OutsideDomainError` naming them; ``'extrapolate'``:
+        the nearest simplex (every point valid).
+
+    Returns
+    -------
+    simplices : ndarray of int64, shape (N,)
+    valid : ndarray of bool, shape (N,)
+        Points that have a simplex.
+    """
+    check_policy(outside, SPLINE_POLICIES)
+    sid = triangulation.locate(points)
+    valid = sid >= 0
+    if not np.all(valid):
+        bad = np.nonzero(~valid)[0]
+        if outside == "raise":
+            raise OutsideDomainError(
+                f"{len(bad)} of {len(points)} points lie outside the triangulation (first "
+                f"rows: {bad[:5].tolist()}); use outside='nan' or 'extrapolate'", bad)
+        if outside == "extrapolate":
+            sid[bad] = triangulation.nearest(points[bad])
+            valid[:] = True
+    return sid, valid

@@ -9,7 +9,7 @@ computes it; :class:`~simplexspline.spline.uncertainty.intervals.Uncertainty` tu
 errors and intervals.
 
 Every prediction at a point of simplex j needs only the d_hat x d_hat block of the covariance
-of that simplex's B-coefficients, ``C_j = G_j Cov(g) G_j'``. :class:`_Engine` computes the
+of that simplex's B-coefficients, ``C_j = G_j Cov(g) G_j'``. :class:`CovarianceEngine` computes the
 blocks either from an orthonormal basis of the constrained coefficient space (when it fits a
 memory budget: ``K = Rk Rk'``, all blocks at once) or from the columns ``K e_m`` (one per
 global coefficient m that the simplices asked for), by the fit's factorisation of the
@@ -31,6 +31,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from simplexspline.errors import InsufficientDataError
+from simplexspline.spline.fit import constrained as S
 
 __all__ = ["BASIS_BATCH", "REFINE_ACCEPT", "REFINE_MAXITER", "REFINE_TOL"]
 
@@ -44,12 +45,11 @@ REFINE_ACCEPT = 1e-9
 REFINE_MAXITER = 40
 
 
-class _Engine:
+class CovarianceEngine:
     """The factorised constrained system of a fit: applies K to many right-hand sides, or
     factors K through an orthonormal basis of the constrained coefficient space."""
 
     def __init__(self, space, Q, counts, policy, lam, penalty, sandwich):
-        from simplexspline.spline.fit import constrained as S
         system = space.system
         nsimp, dhat, _ = Q.shape
         Qp = Q if penalty is None else Q + penalty
@@ -100,7 +100,7 @@ class _Engine:
         cache = getattr(system, "solver_cache", None)
         coords = cache.get("points") if cache is not None else None
         if coords is None:
-            coords = S._global_points(space.triangulation, space.degree, self.gather, M)
+            coords = S.global_points(space.triangulation, space.degree, self.gather, M)
             if cache is not None:
                 cache["points"] = coords
         self._coords, self._cache = coords, cache
@@ -233,7 +233,6 @@ class _Engine:
         """Orthonormal basis (M, p) of null(A): the range of the orthogonal projector onto
         it, sampled with random vectors (batches until one adds no direction); None when it
         would exceed ``basis_bytes``."""
-        from simplexspline.spline.fit import constrained as S
         M, m = self.M, self.m
         budget = basis_bytes // 8
         if m == 0:

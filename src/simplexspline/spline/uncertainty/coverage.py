@@ -35,8 +35,11 @@ from pathlib import Path
 
 import numpy as np
 
+from simplexspline._files import atomic_write
 from simplexspline.errors import InputError
 from simplexspline.spline.bform import num_basis
+from simplexspline.spline.fit.normal_equations import NormalEquations
+from simplexspline.spline.fit.penalty import bernstein_gram
 from simplexspline.spline.inputs import as_points
 
 __all__ = ["Coverage", "coverage", "DEFAULT_MIN_EFFECTIVE"]
@@ -213,8 +216,6 @@ class Coverage:
         ax.set_title(f"{s['supported']}/{s['simplices']} simplices supported "
                      f"(red/x: not)", fontsize=9)
         if path is not None:
-            from simplexspline.spline.formats.model_file import atomic_write
-
             atomic_write(Path(path), lambda tmp: fig.savefig(tmp, format="png"))
         return fig
 
@@ -244,9 +245,6 @@ def coverage(normal_equations, *, min_effective: float = DEFAULT_MIN_EFFECTIVE) 
     >>> cov.supported_at([[0.2, 0.5], [0.9, 0.5]]).tolist()
     [True, False]
     """
-    from simplexspline.spline.fit.normal_equations import NormalEquations
-    from simplexspline.spline.fit.penalty import bernstein_gram
-
     if not isinstance(normal_equations, NormalEquations):
         raise InputError("coverage() takes a NormalEquations accumulator "
                          "(from SplineSpace.normal_equations)")

@@ -45,17 +45,12 @@ from simplexspline.errors import InputError, InsufficientDataError
 from simplexspline.spline import kernels
 from simplexspline.spline.bform import basis_values
 
-# The covariance computation has its own module; its names stay importable from here (the
-# memory budgets CHUNK_BYTES and BASIS_BYTES stay below and are passed to it on every call).
-from simplexspline.spline.uncertainty.covariance import (  # noqa: F401
-    BASIS_BATCH,
-    REFINE_ACCEPT,
-    REFINE_MAXITER,
-    REFINE_TOL,
-    _Engine,
-    _refine,
-)
+from simplexspline.spline.fit.constrained import POLICIES
+from simplexspline.spline.fit.normal_equations import NormalEquations
+from simplexspline.spline.fit.penalty import fit_penalty
+from simplexspline.spline.geometry.outside import locate
 from simplexspline.spline.inputs import as_points
+from simplexspline.spline.uncertainty.covariance import CovarianceEngine
 
 __all__ = ["COVARIANCES", "FORMAT", "KINDS", "VERSION", "Uncertainty"]
 
@@ -142,8 +137,6 @@ class Uncertainty:
     def __init__(self, space, gram, counts, *, nobs: int, rss: float, policy: str = "raise",
                  ridge: float = 0.0, penalty=None, covariance: str | None = None,
                  absolute_weights: bool = False, effective_parameters: float | None = None):
-        from simplexspline.spline.fit.constrained import POLICIES
-
         J, dhat = space.triangulation.nsimplex, space.nbasis
         gram = np.asarray(gram, dtype=float)
         if gram.shape != (J, dhat, dhat):
@@ -241,8 +234,6 @@ class Uncertainty:
         InsufficientDataError
             No data, or coefficients left undetermined under ``'raise'``.
         """
-        from simplexspline.spline.fit.normal_equations import NormalEquations
-
         ne = normal_equations
         if not isinstance(ne, NormalEquations):
             raise InputError("with_statistics() takes the NormalEquations accumulator the "
@@ -265,7 +256,7 @@ class Uncertainty:
         else:
             lam = 0.0
         if penalty is None:
-            penalty = _fit_penalty(spline)
+            penalty = fit_penalty(spline)
         coef = spline.coefficients
         rss = float(ne.ytWy - 2.0 * np.einsum("jk,jk->", coef, q)
                     + np.einsum("jk,jkl,jl->", coef, Q, coef))
@@ -338,7 +329,7 @@ class Uncertainty:
     def quantile(self, level: float) -> float:
         """Two-sided quantile for a ``level`` interval: Student t with N - p degrees of
         freedom, or normal with ``absolute_weights``."""
-        from scipy import stats
+        from scipy import stats  # lazy: scipy.stats is slow to import
 
         if not (isinstance(level, (int, float, np.floating)) and 0.0 < level < 1.0):
             raise InputError(f"level must be a probability in (0, 1), e.g. 0.95, got {level!r}")
@@ -350,22 +341,9 @@ class Uncertainty:
 
     # ------------------------------------------------------------------ points
     def _locate(self, x, outside: str):
-        from simplexspline.errors import OutsideDomainError
-        from simplexspline.spline.function import OUTSIDE_POLICIES
-
         tri = self.space.triangulation
         pts = as_points(x, name="x", ndim=tri.ndim)
-        if outside not in OUTSIDE_POLICIES:
-            raise InputError(f"outside must be one of {OUTSIDE_POLICIES}, got {outside!r}")
-        sid = tri.locate(pts)
-        bad = np.nonzero(sid < 0)[0]
-        if len(bad):
-            if outside == "raise":
-                raise OutsideDomainError(
-                    f"{len(bad)} of {len(pts)} points lie outside the triangulation (first "
-                    f"rows: {bad[:5].tolist()}); use outside='nan' or 'extrapolate'", bad)
-            if outside == "extrapolate":
-                sid[bad] = tri.nearest(pts[bad])
+        sid, _ = locate(tri, pts, outside)
         return pts, sid
 
     def unscaled_variance(self, x, *, outside: str = "nan") -> np.ndarray:
@@ -560,9 +538,9 @@ class Uncertainty:
                    effective_parameters=None if p is None else float(p))
 
     # ------------------------------------------------------------------ work
-    def _get_engine(self) -> _Engine:
+    def _get_engine(self) -> CovarianceEngine:
         if self._engine is None:
-            self._engine = _Engine(self.space, self.gram, self.counts, self.policy,
+            self._engine = CovarianceEngine(self.space, self.gram, self.counts, self.policy,
                                    self.ridge, self.penalty,
                                    self.covariance_type == "frequentist")
         return self._engine
@@ -585,11 +563,3 @@ class Uncertainty:
         self._done[:] = True  # basis path: every block at once
         if self._p is None and not self.regularized:
             self._p = float(rank)
-
-
-def _fit_penalty(spline):
-    """Absolute penalty blocks of a penalised fit, or None (see
-    :func:`simplexspline.spline.fit.penalty._fit_penalty`)."""
-    from simplexspline.spline.fit.penalty import _fit_penalty
-
-    return _fit_penalty(spline)
