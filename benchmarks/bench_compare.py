@@ -448,7 +448,8 @@ def main(argv=None) -> int:
     import sklearn
 
     import simplexspline
-    from simplexspline.aero.modelling.structure import PAPER_PRESET, Scaling
+    from simplexspline.aero.modelling.presets import PAPER_PRESET
+    from simplexspline.aero.modelling.structure import Scaling
     from simplexspline.aero.selection.validation import fold_by_maneuver, split_by_maneuver
 
     def log(msg):

@@ -159,13 +159,13 @@ def test_render_jobs_in_order(workers):
 
 
 def test_projected_edges_unique():
-    from simplexspline.aero.report.page import _projected_edges
+    from simplexspline.aero.report.figures import projected_edges
 
     # two triangles sharing an edge: 5 distinct edges
     pts = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    seg = _projected_edges(pts, np.array([[0, 1, 2], [0, 2, 3]]))
+    seg = projected_edges(pts, np.array([[0, 1, 2], [0, 2, 3]]))
     assert seg.shape == (5, 2, 2)
     # a tetrahedron projected on (x, y): vertex 3 falls on vertex 0, leaving 3 segments
     pts3 = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
-    seg3 = _projected_edges(pts3[:, :2], np.array([[0, 1, 2, 3]]))
+    seg3 = projected_edges(pts3[:, :2], np.array([[0, 1, 2, 3]]))
     assert len(seg3) == 3 and np.all(np.any(seg3[:, 0] != seg3[:, 1], axis=1))

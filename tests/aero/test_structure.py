@@ -7,7 +7,8 @@ import pytest
 
 from simplexspline.aero.config import load_config, parse_structure, settings_from_config
 from simplexspline.aero.identify import IdentificationSettings
-from simplexspline.aero.modelling.structure import PAPER_PRESET, Scaling, Structure, preset
+from simplexspline.aero.modelling.presets import PAPER_PRESET, preset
+from simplexspline.aero.modelling.structure import Scaling, Structure
 from simplexspline.errors import InputError
 
 

@@ -15,7 +15,8 @@ from simplexspline.aero.export.lookup_tables import lookup_table
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.moves import neighbours
 from simplexspline.aero.selection.search import SelectionSettings, cv_score, fit_structure
-from simplexspline.aero.modelling.structure import Scaling, Structure, format_knots, parse_knots
+from simplexspline.aero.modelling.notation import format_knots, parse_knots
+from simplexspline.aero.modelling.structure import Scaling, Structure
 
 D2R = np.pi / 180.0
 #: table breakpoints of the synthetic "database" (like JSBSim's F-16: alpha every 5 deg)

@@ -45,7 +45,8 @@ from simplexspline.aero.reconstruction.reconstruct import (
     reconstruct,
 )
 from simplexspline.aero.selection.search import SelectionSettings, select_structure
-from simplexspline.aero.modelling.structure import Scaling, Structure, preset
+from simplexspline.aero.modelling.presets import preset
+from simplexspline.aero.modelling.structure import Scaling, Structure
 from simplexspline.aero.selection.validation import scores, split_by_maneuver
 
 __all__ = [

@@ -55,12 +55,9 @@ from pathlib import Path
 
 from simplexspline.aero.identify import IdentificationSettings
 from simplexspline.aero.selection.search import SelectionSettings
-from simplexspline.aero.modelling.structure import (
-    COEFFICIENTS,
-    Structure,
-    parse_knots,
-    structures_from_config,
-)
+from simplexspline.aero.modelling.notation import parse_knots
+from simplexspline.aero.modelling.structure import Structure, structures_from_config
+from simplexspline.aero.variables import COEFFICIENTS
 from simplexspline.errors import InputError
 
 __all__ = ["load_config", "parse_structure", "settings_from_config"]

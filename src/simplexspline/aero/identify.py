@@ -31,9 +31,13 @@ from simplexspline.aero.selection.search import (
     select_structure,
     single_threaded_blas,
 )
-from simplexspline.aero.modelling.structure import COEFFICIENTS, Structure, multiplier_values, preset
+from simplexspline.aero.modelling.presets import preset
+from simplexspline.aero.modelling.structure import multiplier_values, Structure
+from simplexspline.aero.variables import COEFFICIENTS
 from simplexspline.aero.selection.validation import PAPER_TABLE2, scores, split_by_maneuver
 from simplexspline.errors import FlightDataError, InputError
+from simplexspline.aero.report.page import write_report
+from simplexspline.aero.reconstruction.reconstruct import reconstruct
 
 __all__ = [
     "CoefficientResult",
@@ -262,8 +266,6 @@ class Identification:
                 json.dumps(_jsonable(self.summary()), indent=1, allow_nan=True) + "\n",
                 encoding="utf-8")
             if report:
-                from simplexspline.aero.report.page import write_report
-
                 write_report(self, tmp, progress=progress)
             if outdir.exists():
                 old = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.old.", dir=parent))
@@ -312,8 +314,6 @@ def _coefficient_data(df, meta: dict, settings: IdentificationSettings, progress
             raise FlightDataError(f"reconstruct='never' but the coefficient column(s) "
                                   f"{missing} are missing: run the reconstruction")
         return df, {"reconstructed": False}
-    from simplexspline.aero.reconstruction.reconstruct import reconstruct
-
     log("flight path reconstruction (IEKF + RTS smoother)")
     rec = reconstruct(df, meta, workers=settings.workers, progress=progress)
     note = {"reconstructed": True, "rejected": {int(k): v for k, v in rec.rejected.items()},

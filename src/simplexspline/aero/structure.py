@@ -7,4 +7,9 @@ from simplexspline._deprecation import deprecated_module
 
 __getattr__, __dir__ = deprecated_module(
     __name__, "simplexspline.aero.modelling.structure",
-    ['preset', 'COEFFICIENTS', 'CANDIDATE_VARIABLES', 'UNITS', 'Structure', 'multiplier_values', 'multiplier_jacobian', 'structures_from_config', 'KNOT_MARGIN', 'Scaling'])
+    ['Structure', 'multiplier_values', 'multiplier_jacobian', 'structures_from_config',
+     'KNOT_MARGIN', 'Scaling'],
+    elsewhere={"preset": "simplexspline.aero.modelling.presets",
+               "COEFFICIENTS": "simplexspline.aero.variables",
+               "CANDIDATE_VARIABLES": "simplexspline.aero.variables",
+               "UNITS": "simplexspline.aero.variables"})

@@ -18,15 +18,16 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline.aero.modelling.structure import (
-    UNITS,
-    Scaling,
-    Structure,
     multiplier_jacobian,
     multiplier_values,
+    Scaling,
+    Structure,
 )
+from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError, ModelFileError
 from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.varying import VaryingCoefficientSpline
+from simplexspline.spline.formats.loading import load_spline
 
 __all__ = ["AERO_FORMAT", "AERO_VERSION", "AeroModel"]
 
@@ -228,8 +229,6 @@ class AeroModel:
     @classmethod
     def load(cls, path) -> AeroModel:
         """Read a model written by :meth:`save`."""
-        from simplexspline.spline.formats.loading import load_spline
-
         spline = load_spline(path)
         meta = dict(spline.metadata)
         aero = meta.pop("aero", None)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError
 
 __all__ = ["format_knots", "format_multiplier", "multiplier_factors", "multiplier_parts",
@@ -24,8 +25,6 @@ __all__ = ["format_knots", "format_multiplier", "multiplier_factors", "multiplie
 
 
 def _is_angle(variable: str) -> bool:
-    from simplexspline.aero.modelling.structure import UNITS
-
     return UNITS.get(variable) == "rad"
 
 

@@ -27,44 +27,17 @@ from simplexspline.aero.modelling.notation import (
     parse_multiplier,
     split_multiplier,
 )
+from simplexspline.aero.variables import CANDIDATE_VARIABLES, COEFFICIENTS, UNITS
 from simplexspline.errors import InputError
 
 __all__ = [
-    "CANDIDATE_VARIABLES",
-    "COEFFICIENTS",
-    "F16_PRESET",
-    "PAPER_PRESET",
-    "PRESETS",
-    "VARYING_PRESET",
-    "UNITS",
+    "KNOT_MARGIN",
     "Scaling",
     "Structure",
-    "format_knots",
-    "multiplier_factors",
     "multiplier_jacobian",
     "multiplier_values",
-    "split_multiplier",
-    "parse_knots",
-    "preset",
     "structures_from_config",
 ]
-
-#: The six body-axis force and moment coefficients (Eq. 43-48).
-COEFFICIENTS = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
-
-#: Explanatory variables the automatic structure selection may add (when in the data).
-CANDIDATE_VARIABLES = ("alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr")
-
-#: Units of the variables and coefficients (SI, radians).
-UNITS = {
-    "alpha": "rad", "beta": "rad", "mach": "-", "tas": "m/s", "h": "m", "rho": "kg/m^3",
-    "p": "rad/s", "q": "rad/s", "r": "rad/s", "phat": "- (p b / 2V)",
-    "qhat": "- (q cbar / 2V)", "rhat": "- (r b / 2V)", "de": "rad", "da": "rad", "dr": "rad",
-    "dte": "rad", "flap": "rad", "speedbrake": "rad", "gear": "-",
-    "phi": "rad", "theta": "rad", "pdot": "rad/s^2", "qdot": "rad/s^2", "rdot": "rad/s^2",
-    **{c: "-" for c in COEFFICIENTS},
-}
-
 
 @dataclass(frozen=True)
 class Structure:
@@ -503,13 +476,3 @@ class Scaling:
         knots = tuple(tuple(float(v) for v in k) for k in data.get("knots", ()))
         return cls(tuple(data["variables"]), tuple(float(v) for v in data["lower"]),
                    tuple(float(v) for v in data["upper"]), knots)
-
-
-# The presets live in their own module (they need Structure); re-exported here.
-from simplexspline.aero.modelling.presets import (
-    F16_PRESET,
-    PAPER_PRESET,
-    PRESETS,
-    VARYING_PRESET,
-    preset,
-)

@@ -21,6 +21,8 @@ from simplexspline.aero.report.markup import (
     _unit,
 )
 from simplexspline.aero.report.render import _Figure
+from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
+from simplexspline.aero.derivatives.stability import derivatives, reference_conditions
 
 
 def _sweep_axes(model, ident) -> dict:
@@ -35,9 +37,6 @@ def _sweep_axes(model, ident) -> dict:
 
 
 def _fig_derivatives(r, c: str, model, ident, ref: dict) -> _Figure | None:
-    from simplexspline.aero.derivatives.plots import plot_derivatives
-    from simplexspline.aero.derivatives.stability import derivatives
-
     axes = _sweep_axes(model, ident)
     x = next(iter(axes))
     table = derivatives(model, axes, reference=ref, wrt=list(model.variables))
@@ -56,9 +55,6 @@ def _fig_derivatives(r, c: str, model, ident, ref: dict) -> _Figure | None:
 
 
 def _fig_derivative_maps(r, models: dict, ref: dict) -> _Figure | None:
-    from simplexspline.aero.derivatives.plots import plot_derivative_map
-    from simplexspline.aero.derivatives.stability import derivatives
-
     both = {c: m for c, m in models.items() if {"alpha", "mach"} <= set(m.variables)}
     if not both:
         return None
@@ -82,8 +78,6 @@ def _fig_derivative_maps(r, models: dict, ref: dict) -> _Figure | None:
 def _derivative_section(models: dict, ident, H: list, M: list, slot) -> None:
     """The 'Stability and control derivatives' section: a table at the reference
     condition and figures across the envelope."""
-    from simplexspline.aero.derivatives.stability import derivatives, reference_conditions
-
     ref = reference_conditions(models, ident)
     at_ref = derivatives(models, None, reference=ref)
     rows = []

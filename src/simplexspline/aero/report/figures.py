@@ -379,7 +379,7 @@ def _fig_diagnostics(r, c: str, res, thin_limit: float) -> _Figure:
                   "identification samples per simplex, thin simplices in red (right)")
 
 
-def _projected_edges(points: np.ndarray, simplices: np.ndarray) -> np.ndarray:
+def projected_edges(points: np.ndarray, simplices: np.ndarray) -> np.ndarray:
     """Unique 2-D segments (M, 2, 2) of the simplex edges projected on ``points``."""
     pairs = np.concatenate([simplices[:, [i, j]]
                             for i, j in combinations(range(simplices.shape[1]), 2)])
@@ -417,7 +417,7 @@ def _fig_triangulation(r, c: str, model, ident, thin) -> _Figure | None:
         if xa is not None and xb is not None:
             ax.scatter(_disp(a, xa)[s], _disp(b, xb)[s], s=1.5, c="#7a8db3", alpha=0.3,
                        lw=0, rasterized=True)
-        ax.add_collection(LineCollection(_projected_edges(pts, simplices), colors="k",
+        ax.add_collection(LineCollection(projected_edges(pts, simplices), colors="k",
                                          linewidths=0.6, label="simplex edges"))
         if len(thin):
             cen = centroids[np.asarray(thin, dtype=int)]

@@ -7,6 +7,7 @@ HTML and Markdown escaping, and the HTML and Markdown tables of
 """
 
 from __future__ import annotations
+from simplexspline.aero.variables import UNITS
 
 import html
 import math
@@ -41,8 +42,6 @@ def _md_text(value) -> str:
 
 def _unit(var: str) -> tuple[str, float]:
     """(display unit, factor from SI) of a flight-data column."""
-    from simplexspline.aero.modelling.structure import UNITS
-
     unit = UNITS.get(var, "")
     if unit in _DISPLAY:
         return _DISPLAY[unit]

@@ -50,7 +50,6 @@ from simplexspline.aero.report.figures import (
     _fig_time_history,
     _fig_triangulation,
     _fig_validation,
-    _projected_edges,  # noqa: F401  (re-exported: tests import it from here)
 )
 from simplexspline.aero.report.markup import (
     _column,
@@ -63,6 +62,7 @@ from simplexspline.aero.report.markup import (
     _unit,
 )
 from simplexspline.aero.report.render import _render, _Renderer
+from simplexspline.aero.selection.validation import PAPER_TABLE2
 
 __all__ = ["write_report"]
 
@@ -129,8 +129,6 @@ class _Slot:
 
 # ---------------------------------------------------------------------------- tables
 def _rows_table2(ident_obj) -> tuple[list, list]:
-    from simplexspline.aero.selection.validation import PAPER_TABLE2
-
     truth = bool(ident_obj.has_truth)
     head = ["coefficient", "model", "simplices", "B-coefficients", "RMS", "rel. RMS",
             "R²", "paper rel. RMS", "ident. rel. RMS", "whiteness", "thin simplices"]

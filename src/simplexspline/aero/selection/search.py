@@ -23,7 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simplexspline.aero.modelling.structure_space import _accumulate, _matrix, _predict, _space
+from simplexspline.aero.modelling.structure_space import (
+    StructureSpace,
+    accumulate,
+    evaluate,
+    input_matrix,
+)
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.moves import neighbours
 from simplexspline.aero.modelling.prior import (
@@ -35,6 +40,7 @@ from simplexspline.aero.modelling.prior import (
 from simplexspline.aero.modelling.structure import Structure
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.varying import VaryingCoefficientSpace
+from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
 
 __all__ = ["SelectionSettings", "Trial", "choose_prior_degree", "cv_score", "fit_structure",
            "select_structure"]
@@ -166,7 +172,7 @@ def _prior_equations(structure, space, scaling, mscale, coarse, weight: float):
     :mod:`simplexspline.aero.modelling.prior`), each with ``weight``."""
     z, m, yv = virtual_samples(structure, space.triangulation,
                                scaling.subset(structure.variables), mscale[0], coarse)
-    return _accumulate(space, z, m, yv, np.full(len(yv), weight))
+    return accumulate(space, z, m, yv, np.full(len(yv), weight))
 
 
 def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
@@ -207,14 +213,16 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
     AeroModel
         ``provenance['counts']`` lists the samples per simplex.
     """
-    x = _matrix(columns, structure.inputs)
+    x = input_matrix(columns, structure.inputs)
     y = np.asarray(y, dtype=float)
     use_prior = _use_prior(structure, prior)
     # with a prior, keep the whole grid: the prior determines simplices without data
-    scaling, u, m, mscale, space = _space(structure, x, 0 if use_prior else min_points)
+    laid = StructureSpace.build(structure, x, 0 if use_prior else min_points)
+    scaling, u, m, mscale, space = (laid.scaling, laid.scheduling, laid.multipliers,
+                                    laid.multiplier_scaling, laid.space)
     keep = space.triangulation.locate(u) >= 0
     w = None if weights is None else np.asarray(weights, dtype=float)
-    ne = _accumulate(space, u[keep], None if m is None else m[keep], y[keep],
+    ne = accumulate(space, u[keep], None if m is None else m[keep], y[keep],
                      None if w is None else w[keep])
     prov = dict(provenance or {})
     counts = ne.counts.copy()          # real samples (before any virtual ones are added)
@@ -244,7 +252,7 @@ def _fold_equations(space, u, m, y, folds, k):
     parts = []
     for f in range(k):
         sel = (folds == f) & (sid >= 0)
-        parts.append(_accumulate(space, u[sel], None if m is None else m[sel], y[sel]))
+        parts.append(accumulate(space, u[sel], None if m is None else m[sel], y[sel]))
     total = parts[0].copy()
     for p in parts[1:]:
         total.merge(p)
@@ -288,16 +296,19 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         RMS of the held-out residuals over all folds.
     ncoefficients, nsimplex : int
     """
-    x = _matrix(columns, structure.inputs)
+    x = input_matrix(columns, structure.inputs)
     y = np.asarray(y, dtype=float)
     use_prior = _use_prior(structure, prior)
-    scaling, u, m, mscale, space = _space(structure, x, 0 if use_prior else min_points)
+    laid = StructureSpace.build(structure, x, 0 if use_prior else min_points)
+    scaling, u, m, mscale, space = (laid.scaling, laid.scheduling, laid.multipliers,
+                                    laid.multiplier_scaling, laid.space)
     tri = space.triangulation
     k = int(folds.max()) + 1
     total, parts = _fold_equations(space, u, m, y, folds, k)
     if use_prior:
         cs = coarse_structure(structure, prior_degree)
-        c_scaling, cu, cm, c_mscale, c_space = _space(cs, x, min_points)
+        coarse = StructureSpace.build(cs, x, min_points)
+        cu, cm, c_space = coarse.scheduling, coarse.multipliers, coarse.space
         c_total, c_parts = _fold_equations(c_space, cu, cm, y, folds, k)
     sse = 0.0
     scored = np.ones(len(y), dtype=bool) if scored is None else np.asarray(scored, bool)
@@ -310,11 +321,12 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         train = total - parts[f]
         if use_prior:
             c_spline = _solve(c_space, c_total - c_parts[f], ridge)
-            coarse = AeroModel(cs, c_scaling, c_spline, {}, *c_mscale)
-            train.merge(_prior_equations(structure, space, scaling, mscale, coarse,
+            coarse_model = AeroModel(cs, coarse.scaling, c_spline, {},
+                                     *coarse.multiplier_scaling)
+            train.merge(_prior_equations(structure, space, scaling, mscale, coarse_model,
                                          prior_weight))
         spline = _solve(space, train, ridge, smoothing)
-        pred = _predict(spline, u[held], None if m is None else m[held])
+        pred = evaluate(spline, u[held], None if m is None else m[held])
         sse += float(np.sum((y[held] - pred) ** 2))
     return (float(np.sqrt(sse / np.count_nonzero(scored))), int(space.dim_coefficients),
             int(tri.nsimplex))
@@ -325,8 +337,6 @@ def _cv_setup(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
     """Subsampled columns, coefficient, folds and scored-sample mask of a
     cross-validation, or None with fewer than 2 maneuvers (fewer maneuvers than folds:
     leave one maneuver out instead)."""
-    from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
-
     step = max(1, int(np.ceil(len(y) / settings.max_samples)))
     cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
     ys, mans = np.asarray(y, dtype=float)[::step], np.asarray(maneuvers)[::step]
