@@ -29,7 +29,6 @@ from simplexspline.aero.selection.search import (
     choose_prior_degree,
     fit_structure,
     select_structure,
-    single_threaded_blas,
 )
 from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import multiplier_values, Structure
@@ -38,6 +37,7 @@ from simplexspline.aero.selection.validation import PAPER_TABLE2, scores, split_
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.aero.report.page import write_report
 from simplexspline.aero.reconstruction.reconstruct import reconstruct
+from simplexspline.spline import kernels
 
 __all__ = [
     "CoefficientResult",
@@ -415,7 +415,7 @@ def identify(df, metadata: Mapping | None = None, *,
     results, notes = {}, []
     has_truth = all(f"true_{c}" in valid.columns for c in settings.coefficients)
     bar = _bar(len(settings.coefficients), progress)
-    with single_threaded_blas():
+    with kernels.one_blas_thread():
         for c in settings.coefficients:
             res = _identify_one(c, structures[c], ident, valid, columns, settings,
                                 has_truth, source, notes)

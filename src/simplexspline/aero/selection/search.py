@@ -41,6 +41,7 @@ from simplexspline.aero.modelling.structure import Structure
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.varying import VaryingCoefficientSpace
 from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
+from simplexspline.spline import kernels
 
 __all__ = ["SelectionSettings", "Trial", "choose_prior_degree", "cv_score", "fit_structure",
            "select_structure"]
@@ -136,25 +137,6 @@ class Trial:
                 "ncoefficients": self.ncoefficients, "nsimplex": self.nsimplex,
                 "seconds": round(self.seconds, 3), "accepted": self.accepted,
                 "error": self.error}
-
-
-class single_threaded_blas:
-    """Limit BLAS/LAPACK to one thread: the many small factorisations of the selection
-    are 10-20x slower with multi-threaded OpenBLAS on a busy machine (measured)."""
-
-    def __enter__(self):
-        try:
-            from threadpoolctl import threadpool_limits
-        except ImportError:  # pragma: no cover - threadpoolctl is in the aero extra
-            self._limits = None
-        else:
-            self._limits = threadpool_limits(limits=1, user_api="blas")
-        return self
-
-    def __exit__(self, *exc):
-        if self._limits is not None:
-            self._limits.restore_original_limits()
-        return False
 
 
 def _use_prior(structure: Structure, prior) -> bool:
@@ -376,7 +358,7 @@ def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
         return 3, {}
     cols, ys, folds, scored = setup
     scores = {}
-    with single_threaded_blas():
+    with kernels.one_blas_thread():
         for d in PRIOR_DEGREES:
             try:
                 scores[d] = cv_score(structure, cols, ys, folds, min_points=settings.min_points,
@@ -467,7 +449,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         return trial.score
 
     score.history = history
-    with single_threaded_blas():
+    with kernels.one_blas_thread():
         return _search(start, settings, available, budget, score, ranges)
 
 
