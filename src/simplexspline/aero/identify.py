@@ -34,6 +34,7 @@ from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import multiplier_values, Structure
 from simplexspline.aero.variables import COEFFICIENTS
 from simplexspline.aero.selection.validation import PAPER_TABLE2, scores, split_by_maneuver
+from simplexspline._version import __version__
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.aero.report.page import write_report
 from simplexspline.aero.reconstruction.reconstruct import reconstruct
@@ -366,18 +367,37 @@ def identify(df, metadata: Mapping | None = None, *,
     InputError
         Unknown variables in a structure, an empty identification or validation set.
     """
-    from simplexspline._version import __version__
-
     settings = settings or IdentificationSettings()
     log = log or (lambda _msg: None)
     t_start = time.perf_counter()
     meta = dict(df.attrs if metadata is None else metadata)
+    structures = settings.starting_structures()
+    data, rec_note, used = _identification_data(df, meta, settings, structures, progress, log)
+    ident, valid = _split(data, settings, log)
+    columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
+               if c in used or c in settings.selection.candidates}
+    columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
+    results, notes = _fit_coefficients(structures, ident, valid, columns, settings, source,
+                                       progress, log)
+    prov = {"software": f"simplexspline {__version__}",
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "seconds": round(time.perf_counter() - t_start, 2),
+            "reconstruction": rec_note}
+    if source:
+        prov["source"] = source
+    _record_provenance(results, ident, meta, settings, prov)
+    return Identification(results, ident, valid, settings, meta, prov, notes)
+
+
+def _identification_data(df, meta: dict, settings: IdentificationSettings,
+                         structures: Mapping, progress: bool, log):
+    """Step 1: the checked data with coefficients (reconstructed first when raw), a note on
+    the reconstruction, and the columns the structures and the selection use."""
     if "maneuver" not in df.columns:
         raise FlightDataError("column 'maneuver' is missing: the validation split is made "
                               "by maneuver")
     if len(df) == 0:
         raise FlightDataError("the flight data table is empty")
-    structures = settings.starting_structures()
     # Fail before the (long) reconstruction when a structure names an unknown column.
     _check_columns(df, structures, (), extra=_RECONSTRUCTED)
     data, rec_note = _coefficient_data(df, meta, settings, progress, log)
@@ -395,6 +415,11 @@ def identify(df, metadata: Mapping | None = None, *,
         raise FlightDataError(f"NaN or inf in column(s) {cols} in {int(bad_rows.sum())} rows "
                               f"of maneuver(s) {mans[:10].tolist()}: drop those maneuvers or "
                               "fill the gaps before identification")
+    return data, rec_note, used
+
+
+def _split(data, settings: IdentificationSettings, log):
+    """Step 2: identification and validation samples, split by whole maneuvers."""
     groups = data["maneuver_type"].to_numpy() if "maneuver_type" in data.columns else None
     conditions = data["condition"].to_numpy() if "condition" in data.columns else None
     is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
@@ -409,9 +434,13 @@ def identify(df, metadata: Mapping | None = None, *,
     log(f"{data['maneuver'].nunique()} maneuvers: {ident['maneuver'].nunique()} for "
         f"identification ({len(ident):,} samples), {valid['maneuver'].nunique()} for "
         f"validation ({len(valid):,} samples)")
-    columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
-               if c in used or c in settings.selection.candidates}
-    columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
+    return ident, valid
+
+
+def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
+                      settings: IdentificationSettings, source, progress: bool, log):
+    """Step 3: select, fit and validate each coefficient's model (one BLAS thread: many
+    small factorisations)."""
     results, notes = {}, []
     has_truth = all(f"true_{c}" in valid.columns for c in settings.coefficients)
     bar = _bar(len(settings.coefficients), progress)
@@ -426,12 +455,13 @@ def identify(df, metadata: Mapping | None = None, *,
                    if has_truth else "") + f"  [{res.seconds:.1f} s]")
             bar.update(1)
     bar.close()
-    prov = {"software": f"simplexspline {__version__}",
-            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-            "seconds": round(time.perf_counter() - t_start, 2),
-            "reconstruction": rec_note}
-    if source:
-        prov["source"] = source
+    return results, notes
+
+
+def _record_provenance(results: Mapping, ident, meta: dict,
+                       settings: IdentificationSettings, prov: dict) -> None:
+    """Step 4: what each model file keeps of the run (settings, medians, geometry,
+    validation scores)."""
     for res in results.values():
         res.model.provenance.update({"software": prov["software"],
                                      "settings": settings.to_dict(),
@@ -442,7 +472,6 @@ def identify(df, metadata: Mapping | None = None, *,
                                      "validation": {k: res.validation.get(k) for k in
                                                     ("rms", "rrms", "r2", "rms_true",
                                                      "rrms_true")}})
-    return Identification(results, ident, valid, settings, meta, prov, notes)
 
 
 def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
