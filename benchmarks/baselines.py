@@ -26,14 +26,14 @@ from __future__ import annotations
 
 import itertools
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import scipy.linalg as sla
 from scipy.interpolate import BSpline
+
+from simplexspline._files import atomic_write
 
 __all__ = [
     "MLPModel",
@@ -54,18 +54,10 @@ __all__ = [
 
 def save_npz(path, arrays: dict) -> Path:
     """Write named arrays to an uncompressed ``.npz`` atomically (temp file + rename)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
-    os.close(fd)
-    try:
+    def write(tmp):
         with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    return atomic_write(path, write)
 
 
 class _Saveable:
