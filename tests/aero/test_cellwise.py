@@ -4,10 +4,13 @@ selection move, and recovery of a table truth whose derivatives have coarser gri
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from simplexspline import InputError
+from simplexspline.aero.selection.search import PLAIN_FIT
 from simplexspline.aero.config import parse_structure
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.moves import neighbours
@@ -21,6 +24,9 @@ from .test_varying import ALPHA_KNOTS, D2R, campaign, table
 
 LABEL = ("Cl(alpha@-10:30:5deg, beta, mach@0.6/0.8 | 1, phat, da{alpha@-10:30:10deg}) "
          "S^0_2 cellwise")
+
+#: A fit with the coarse-model prior (the selection's default).
+WITH_PRIOR = replace(PLAIN_FIT, prior="auto")
 
 
 def coarse_truth(df):
@@ -78,7 +84,7 @@ def test_label_dict_and_file_round_trip(data, tmp_path):
     assert s.term_knots[2]["alpha"] == pytest.approx(tuple(ALPHA_KNOTS[::2]))
     assert s.term_knots[0] == {} and s.inputs == ("alpha", "beta", "mach", "phat", "da")
     assert not parse_structure(LABEL.replace(" cellwise", "")).cellwise
-    model = fit_structure(s, _cols(data), data["Cl"].to_numpy(), prior="auto")
+    model = fit_structure(s, _cols(data), data["Cl"].to_numpy(), WITH_PRIOR)
     for suffix in (".json", ".npz"):
         back = AeroModel.load(model.save(tmp_path / f"m{suffix}"))
         assert back.structure == s
@@ -126,10 +132,10 @@ def test_cellwise_with_term_breakpoints_recovers_the_table_truth(data):
     folds = data["maneuver"].to_numpy() % 3
     s = parse_structure(LABEL)
     kuhn = s.with_(cellwise=False)
-    assert cv_score(s, cols, y, folds, prior="auto")[0] < 0.9 * cv_score(
-        kuhn, cols, y, folds, prior="auto")[0]
+    assert cv_score(s, cols, y, folds, WITH_PRIOR)[0] < 0.9 * cv_score(
+        kuhn, cols, y, folds, WITH_PRIOR)[0]
     test = campaign(n=6, seed=11)
-    model = fit_structure(s, cols, y, prior="auto")
+    model = fit_structure(s, cols, y, WITH_PRIOR)
     err = model.predict(test) - coarse_truth(test).to_numpy()
     assert np.sqrt(np.mean(err ** 2)) < 0.2 * 2e-4
     # the aileron term has no kink at the dropped breakpoints (odd multiples of 5 deg)

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 import pytest
 
 from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
+from simplexspline.aero.selection.search import PLAIN_FIT
 from simplexspline.aero.derivatives.stability import (
     condition_grid,
     derivative_name,
@@ -54,14 +56,14 @@ def _data(n=3000, seed=0):
 @pytest.fixture(scope="module")
 def models():
     d = _data()
-    fit = dict(ridge=0.0, min_points=1)
+    fit = replace(PLAIN_FIT, ridge=0.0, min_points=1)
     return {
         "CZ": fit_structure(Structure("CZ", ("alpha", "mach", "de"), 3, 1, (2, 2, 1)), d,
-                            cz_true(d["alpha"], d["mach"], d["de"]), **fit),
+                            cz_true(d["alpha"], d["mach"], d["de"]), fit),
         "Cl": fit_structure(Structure("Cl", ("beta", "phat", "da"), 3, 1), d,
-                            cl_true(d["beta"], d["phat"], d["da"]), **fit),
+                            cl_true(d["beta"], d["phat"], d["da"]), fit),
         "Cm": fit_structure(Structure("Cm", ("alpha", "q", "de"), 3, 1), d,
-                            cm_true(d["alpha"], d["q"], d["de"]), **fit),
+                            cm_true(d["alpha"], d["q"], d["de"]), fit),
     }
 
 
@@ -69,7 +71,8 @@ def models():
 def cn_model():
     d = _data(6000, seed=1)
     return fit_structure(Structure("Cn", ("alpha", "beta"), 3, 1, (4, 4)), d,
-                         cn_true(d["alpha"], d["beta"]), ridge=0.0, min_points=1)
+                         cn_true(d["alpha"], d["beta"]), replace(PLAIN_FIT, ridge=0.0,
+                                                                 min_points=1))
 
 
 @pytest.fixture(scope="module")

@@ -4,11 +4,14 @@ gradients, files, exports, selection moves and errors."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from simplexspline import InputError
+from simplexspline.aero.selection.search import PLAIN_FIT
 from simplexspline.aero.config import parse_structure
 from simplexspline.aero.export.c_code import generate_aero_c
 from simplexspline.aero.export.lookup_tables import lookup_table
@@ -21,6 +24,9 @@ from simplexspline.aero.modelling.structure import Scaling, Structure
 D2R = np.pi / 180.0
 #: table breakpoints of the synthetic "database" (like JSBSim's F-16: alpha every 5 deg)
 ALPHA_KNOTS = np.arange(-10, 35, 5) * D2R
+
+#: A fit with the coarse-model prior (the selection's default).
+WITH_PRIOR = replace(PLAIN_FIT, prior="auto")
 
 
 def table(x, knots, values):
@@ -72,7 +78,7 @@ def data():
 def model(data):
     s = parse_structure(LABEL)
     cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
-    return fit_structure(s, cols, data["Cl"].to_numpy(), smoothing="gcv")
+    return fit_structure(s, cols, data["Cl"].to_numpy(), replace(PLAIN_FIT, smoothing="gcv"))
 
 
 # --------------------------------------------------------------------------- structures
@@ -233,14 +239,13 @@ def test_cross_validation_prefers_the_breakpoints_the_truth_has(data):
     # one polynomial per grid cell: the truth's tables are linear between breakpoints
     s = parse_structure(LABEL + " cellwise")
     moves = dict(neighbours(s, SelectionSettings(), list(cols)))
-    good, coarse, fine = (cv_score(x, cols, y, folds, prior="auto")[0] for x in (
+    good, coarse, fine = (cv_score(x, cols, y, folds, WITH_PRIOR)[0] for x in (
         s, moves["coarsen alpha breakpoints (9->5)"], moves["refine alpha breakpoints (9->17)"]))
     # the truth kinks every 5 deg: a 10 deg grid misses kinks, a 2.5 deg one adds variance
     assert good < 0.97 * coarse and good < 0.97 * fine
     # and the Kuhn diagonals inside the cells are no kinks of the truth: without them the
     # cross-validation error is close to the noise (2e-4), with them twice as large
-    assert good < 1.25 * 2e-4 < cv_score(parse_structure(LABEL), cols, y, folds,
-                                        prior="auto")[0]
+    assert good < 1.25 * 2e-4 < cv_score(parse_structure(LABEL), cols, y, folds, WITH_PRIOR)[0]
 
 
 def test_cross_validation_prefers_the_true_multipliers(data):
@@ -273,7 +278,7 @@ def test_product_multipliers_and_their_gradient():
     s = parse_structure("CX(alpha:2 | 1, beta*beta, qhat*flap) S^1_3")
     assert s.inputs == ("alpha", "beta", "qhat", "flap")
     model = fit_structure(s, {c: df[c].to_numpy() for c in df.columns}, truth.to_numpy(),
-                          prior=None)
+                          PLAIN_FIT)
     np.testing.assert_allclose(model.predict(df), truth, atol=2e-4)
     x = df[list(model.variables)].to_numpy()[:50]
     g = model.gradient(x)
@@ -304,7 +309,7 @@ def test_coarse_prior_stops_divergence_where_data_are_thin():
     region = test["alpha"].to_numpy() > 0.2
     errs = {}
     for prior in (None, "auto"):
-        m = fit_structure(s, cols, thin["Cl"].to_numpy(), prior=prior)
+        m = fit_structure(s, cols, thin["Cl"].to_numpy(), replace(PLAIN_FIT, prior=prior))
         e = m.predict(test) - test["true_Cl"].to_numpy()
         errs[prior] = (np.sqrt(np.mean(e[region] ** 2)), np.sqrt(np.mean(e[~region] ** 2)))
     assert m.provenance["prior"]["structure"] == \
@@ -319,12 +324,12 @@ def test_prior_in_cross_validation_and_errors(data):
     cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
     folds = data["maneuver"].to_numpy() % 3
     y = data["Cl"].to_numpy()
-    with_prior = cv_score(parse_structure(LABEL), cols, y, folds, prior="auto")[0]
-    without = cv_score(parse_structure(LABEL), cols, y, folds, prior=None)[0]
+    with_prior = cv_score(parse_structure(LABEL), cols, y, folds, WITH_PRIOR)[0]
+    without = cv_score(parse_structure(LABEL), cols, y, folds, PLAIN_FIT)[0]
     # held-out maneuvers reach where the other folds' data are thin: the prior helps
     assert np.isfinite(with_prior) and with_prior < 0.7 * without
     with pytest.raises(InputError, match="prior must be"):
-        fit_structure(parse_structure(LABEL), cols, y, prior="fine")
+        fit_structure(parse_structure(LABEL), cols, y, replace(PLAIN_FIT, prior="fine"))
 
 
 def test_identify_leaves_out_a_multiplier_that_never_moved():
@@ -372,7 +377,7 @@ def test_multiplier_terms_restricted_to_variables():
     data = campaign(n=12)
     cols = {c: data[c].to_numpy() for c in data.columns if c != "maneuver_type"}
     model = fit_structure(parse_structure("Cl(alpha:4, beta | 1, phat[alpha], da) S^1_3"),
-                          cols, data["Cl"].to_numpy(), prior=None)
+                          cols, data["Cl"].to_numpy(), PLAIN_FIT)
     x = data[list(model.variables)].to_numpy()[::500]
     z, m = model.split(x)
     g = model.spline.terms[1].gradient(z)

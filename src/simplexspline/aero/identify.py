@@ -492,12 +492,7 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                                          conditions=cond)
     else:
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
-    model = fit_structure(best, columns, y, min_points=settings.selection.min_points,
-                          ridge=settings.selection.ridge,
-                          smoothing=settings.selection.smoothing,
-                          prior=settings.selection.prior,
-                          prior_weight=settings.selection.prior_weight,
-                          prior_degree=prior_degree,
+    model = fit_structure(best, columns, y, settings.selection, prior_degree=prior_degree,
                           provenance={"coefficient": c, **({"source": source}
                                                             if source else {})})
     if prior_scores:

@@ -6,6 +6,7 @@ residual analysis), :mod:`~simplexspline.aero.selection.moves` (a structure's ne
 """
 
 from simplexspline.aero.selection.search import (
+    PLAIN_FIT,
     SelectionSettings,
     Trial,
     choose_prior_degree,
@@ -15,6 +16,7 @@ from simplexspline.aero.selection.search import (
 )
 
 __all__ = [
+    "PLAIN_FIT",
     "SelectionSettings",
     "Trial",
     "choose_prior_degree",

@@ -19,10 +19,11 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from simplexspline.aero.variables import CANDIDATE_VARIABLES
 from simplexspline.aero.modelling.structure_space import (
     StructureSpace,
     accumulate,
@@ -43,7 +44,7 @@ from simplexspline.spline.varying import VaryingCoefficientSpace
 from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
 from simplexspline.spline import kernels
 
-__all__ = ["SelectionSettings", "Trial", "choose_prior_degree", "cv_score", "fit_structure",
+__all__ = ["PLAIN_FIT", "SelectionSettings", "Trial", "choose_prior_degree", "cv_score", "fit_structure",
            "select_structure"]
 
 
@@ -95,7 +96,7 @@ class SelectionSettings:
         Weight of each virtual sample of the coarse model, relative to a real sample.
     """
 
-    candidates: tuple = ("alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr")
+    candidates: tuple = CANDIDATE_VARIABLES
     max_rounds: int = 6
     folds: int = 3
     min_improvement: float = 0.01
@@ -116,6 +117,11 @@ class SelectionSettings:
         return {k: (list(v) if isinstance(v, tuple) else v)
                 for k, v in self.__dict__.items()}
 
+
+
+#: The settings of a plain fit (:func:`fit_structure`, :func:`cv_score`): the selection's
+#: defaults without the coarse-model prior.
+PLAIN_FIT = SelectionSettings(prior=None)
 
 @dataclass
 class Trial:
@@ -157,10 +163,9 @@ def _prior_equations(structure, space, scaling, mscale, coarse, weight: float):
     return accumulate(space, z, m, yv, np.full(len(yv), weight))
 
 
-def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
-                  weights: np.ndarray | None = None, min_points: int = 10,
-                  ridge: float = 1e-8, smoothing=None, prior=None,
-                  prior_weight: float = PRIOR_WEIGHT, prior_degree: int = 3,
+def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
+                  settings: SelectionSettings = PLAIN_FIT, *,
+                  weights: np.ndarray | None = None, prior_degree: int = 3,
                   provenance: dict | None = None) -> AeroModel:
     """Fit one coefficient model of the given structure on all the given samples.
 
@@ -171,22 +176,13 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
         Identification data by column name (physical units).
     y : ndarray, shape (N,)
         The coefficient.
+    settings : SelectionSettings, default :data:`PLAIN_FIT`
+        The fit's settings, taken whole: ``min_points`` (simplices with fewer samples are
+        dropped; with a prior the whole grid is kept, the prior determines empty
+        simplices), ``ridge`` (0: minimum-norm solution in undetermined directions),
+        ``smoothing``, ``prior`` and ``prior_weight`` (see :class:`SelectionSettings`).
+        The default is a plain fit: the selection's defaults without the prior.
     weights : ndarray, shape (N,), optional
-    min_points : int
-        Simplices with fewer samples are dropped (points there use the nearest simplex);
-        with a prior the whole grid is kept (the prior determines empty simplices).
-    ridge : float
-        Relative ridge weight (see :class:`SelectionSettings`); 0 takes the minimum-norm
-        solution in undetermined directions.
-    smoothing : 'auto', 'gcv' or float, optional
-        Smoothness-energy regularisation (:meth:`SplineSpace.fit`; membrane energy for
-        C^0 structures, thin-plate energy otherwise); None: none; 'auto': GCV for
-        varying-coefficient structures only.
-    prior : {'auto', 'coarse'} or None
-        Shrink towards a coarse model (:mod:`simplexspline.aero.modelling.prior`): 'coarse' always,
-        'auto' for varying-coefficient structures; None: never.
-    prior_weight : float
-        Weight of a virtual sample relative to the mean weight of the real ones.
     prior_degree : int
         Degree of the coarse model.
 
@@ -197,7 +193,8 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
     """
     x = input_matrix(columns, structure.inputs)
     y = np.asarray(y, dtype=float)
-    use_prior = _use_prior(structure, prior)
+    min_points, ridge = settings.min_points, settings.ridge
+    use_prior = _use_prior(structure, settings.prior)
     # with a prior, keep the whole grid: the prior determines simplices without data
     laid = StructureSpace.build(structure, x, 0 if use_prior else min_points)
     scaling, u, m, mscale, space = (laid.scaling, laid.scheduling, laid.multipliers,
@@ -210,13 +207,13 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray, *,
     counts = ne.counts.copy()          # real samples (before any virtual ones are added)
     if use_prior:
         cs = coarse_structure(structure, prior_degree)
-        coarse = fit_structure(cs, columns, y, weights=w, min_points=min_points,
-                               ridge=ridge)
+        coarse = fit_structure(cs, columns, y, replace(PLAIN_FIT, min_points=min_points,
+                                                        ridge=ridge), weights=w)
         wbar = 1.0 if w is None else float(np.mean(w[keep]))
         ne.merge(_prior_equations(structure, space, scaling, mscale, coarse,
-                                  prior_weight * wbar))
-        prov["prior"] = {"structure": cs.label(), "weight": prior_weight}
-    spline = _solve(space, ne, ridge, smoothing)
+                                  settings.prior_weight * wbar))
+        prov["prior"] = {"structure": cs.label(), "weight": settings.prior_weight}
+    spline = _solve(space, ne, ridge, settings.smoothing)
     prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
                 counts=counts.tolist(), nbasis=structure.nbasis,
                 nsimplex=space.triangulation.nsimplex,
@@ -262,11 +259,11 @@ def _solve(space, ne, ridge: float, smoothing=None):
     return space.solve(ne, on_insufficient="minnorm", **kw)
 
 
-def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray, *,
-             min_points: int = 10, ridge: float = 1e-8, smoothing=None, prior=None,
-             prior_weight: float = PRIOR_WEIGHT, prior_degree: int = 3,
+def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray,
+             settings: SelectionSettings = PLAIN_FIT, *, prior_degree: int = 3,
              scored: np.ndarray | None = None) -> tuple[float, int, int]:
-    """k-fold cross-validation RMS (folds = whole maneuvers).
+    """k-fold cross-validation RMS (folds = whole maneuvers) of :func:`fit_structure` with
+    the same ``settings`` (default :data:`PLAIN_FIT`).
 
     ``scored`` (bool per sample, optional) limits the RMS to some held-out samples (e.g.
     :func:`~simplexspline.aero.selection.validation.covered_in_fold`); all are fitted on. A mask
@@ -280,7 +277,8 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
     """
     x = input_matrix(columns, structure.inputs)
     y = np.asarray(y, dtype=float)
-    use_prior = _use_prior(structure, prior)
+    min_points, ridge, prior_weight = settings.min_points, settings.ridge, settings.prior_weight
+    use_prior = _use_prior(structure, settings.prior)
     laid = StructureSpace.build(structure, x, 0 if use_prior else min_points)
     scaling, u, m, mscale, space = (laid.scaling, laid.scheduling, laid.multipliers,
                                     laid.multiplier_scaling, laid.space)
@@ -307,7 +305,7 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
                                      *coarse.multiplier_scaling)
             train.merge(_prior_equations(structure, space, scaling, mscale, coarse_model,
                                          prior_weight))
-        spline = _solve(space, train, ridge, smoothing)
+        spline = _solve(space, train, ridge, settings.smoothing)
         pred = evaluate(spline, u[held], None if m is None else m[held])
         sse += float(np.sum((y[held] - pred) ** 2))
     return (float(np.sqrt(sse / np.count_nonzero(scored))), int(space.dim_coefficients),
@@ -361,10 +359,8 @@ def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
     with kernels.one_blas_thread():
         for d in PRIOR_DEGREES:
             try:
-                scores[d] = cv_score(structure, cols, ys, folds, min_points=settings.min_points,
-                                     ridge=settings.ridge, smoothing=settings.smoothing,
-                                     prior=settings.prior, prior_weight=settings.prior_weight,
-                                     prior_degree=d, scored=scored)[0]
+                scores[d] = cv_score(structure, cols, ys, folds, settings, prior_degree=d,
+                                     scored=scored)[0]
             except SimplexSplineError:
                 scores[d] = float("inf")
     best = min(scores, key=scores.get)
@@ -435,10 +431,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         trial = Trial(s, float("inf"), rnd, move)
         try:
             trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
-                s, cols, ys, folds, min_points=settings.min_points, ridge=settings.ridge,
-                smoothing=settings.smoothing, prior=settings.prior,
-                prior_weight=settings.prior_weight, prior_degree=prior_degree,
-                scored=scored)
+                s, cols, ys, folds, settings, prior_degree=prior_degree, scored=scored)
         except SimplexSplineError as exc:
             trial.error = str(exc)[:300]
         trial.seconds = time.perf_counter() - t0
