@@ -505,3 +505,58 @@ int main(void)
                                rtol=1e-11)
     with np.load(tmp_path / "cz.npz", allow_pickle=False) as z:
         assert z["values"].shape == (4, 2, 1)
+
+
+# --------------------------------------------------------------------------- hostile names
+HOSTILE = ["x??/", ",0}; int injected = 42; //", "a\"b\\c", "ctl\x01\x1b[0m", "é*/ /*"]
+
+
+def test_hostile_variable_names_are_refused_by_the_aero_export(cz):
+    from dataclasses import replace
+
+    names = ("alpha", ",0}; int injected = 42; //", "mach")
+    bad = AeroModel(replace(cz.structure, variables=names),
+                    replace(cz.scaling, variables=names), cz.spline, dict(cz.provenance))
+    with pytest.raises(InputError, match=r"variable name ',0\}; int injected = 42; //' of "
+                                         r"the CZ model is not a plain name"):
+        generate_aero_c(bad)
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
+def test_c_string_literals_read_back_the_same_bytes(tmp_path):
+    """Every hostile string, through c_string, compiles and prints back byte for byte."""
+    from simplexspline.spline.formats.c_templates import c_string
+
+    body = "".join(f'    fputs({c_string(s)}, stdout); fputc(0, stdout);\n' for s in HOSTILE)
+    src = tmp_path / "strings.c"
+    src.write_text("#include <stdio.h>\nint main(void)\n{\n" + body + "    return 0;\n}\n")
+    exe = tmp_path / "strings"
+    res = subprocess.run([CC, *FLAGS, "-trigraphs", "-o", str(exe), str(src)],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    out = subprocess.run([str(exe)], capture_output=True, timeout=60).stdout
+    assert out.split(b"\0")[:-1] == [s.encode("utf-8") for s in HOSTILE]
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler ('cc') on this machine")
+def test_hostile_names_in_a_spline_export_stay_inside_its_comment(tmp_path):
+    """Names from a model file's metadata go into the generated comment: with trigraphs on,
+    the C still compiles and defines no symbol but the spline's own."""
+    from simplexspline.spline.formats.c_export import generate_c
+
+    tri = Triangulation.grid([0, 0], [1, 1], (1, 1))
+    x = np.random.default_rng(0).uniform(0, 1, (200, 2))
+    spline = SplineSpace(tri, 2, 1).fit(x, x[:, 0] * x[:, 1])
+    spline.metadata["variables"] = HOSTILE[:2]
+    generate_c(spline, "hostile").write(tmp_path)
+    obj = tmp_path / "hostile.o"
+    res = subprocess.run([CC, *FLAGS, "-trigraphs", "-c", "-o", str(obj),
+                          str(tmp_path / "hostile.c")], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    nm = shutil.which("nm")
+    if nm:
+        symbols = subprocess.run([nm, str(obj)], capture_output=True, text=True).stdout
+        assert "injected" not in symbols
+    text = (tmp_path / "hostile.c").read_text() + (tmp_path / "hostile.h").read_text()
+    assert "??" not in text

@@ -25,12 +25,22 @@ from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.variables import UNITS
 from simplexspline.errors import InputError
 from simplexspline.spline.formats.c_export import RESERVED, CSource, assemble, c_identifier
-from simplexspline.spline.formats.c_templates import c_array, c_comment, c_core
+from simplexspline.spline.formats.c_templates import (
+    c_array,
+    c_comment,
+    c_core,
+    c_string,
+    fill_template,
+)
 from simplexspline.spline.formats.loading import load_spline
 from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.geometry.outside import EXPORT_POLICIES, check_policy
 
 __all__ = ["generate_aero_c", "load_exportable"]
+
+#: Variable names that exported C may carry (the names of the flight-data schema and of
+#: user columns are of this form); anything else is refused, not escaped into code.
+_VARIABLE = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
 
 
 def load_exportable(path) -> AeroModel | SimplexSpline:
@@ -202,12 +212,6 @@ long @P@_eval_points(long npts, const double *x, int policy, double *values,
 """
 
 
-def _fill(template: str, **subs) -> str:
-    for key, val in subs.items():
-        template = template.replace(f"@{key}@", str(val))
-    return template
-
-
 def generate_aero_c(model: AeroModel, prefix: str | None = None, *, outside: str = "clamp",
                     single_header: bool = False) -> CSource:
     """Generate C99 code evaluating an aerodynamic model in physical units.
@@ -246,6 +250,11 @@ def generate_aero_c(model: AeroModel, prefix: str | None = None, *, outside: str
                          f"{model.structure.label()} has multipliers or breakpoints: export "
                          "it as a lookup table (--table) instead")
     check_policy(outside, EXPORT_POLICIES)
+    for v in model.variables:
+        if not isinstance(v, str) or not _VARIABLE.match(v):
+            raise InputError(f"variable name {v!r} of the {model.coefficient} model is not a "
+                             "plain name (letters, digits and '_', starting with a letter): "
+                             "the model file is damaged or hostile; C export refused")
     prefix = c_identifier(prefix if prefix is not None else
                           re.sub(r"[^a-z0-9_]", "_", model.coefficient.lower()))
     tag = f"{prefix}_impl"
@@ -262,12 +271,12 @@ def generate_aero_c(model: AeroModel, prefix: str | None = None, *, outside: str
         VARMACROS=var_macros,
         ARGS=", ".join(f"double {p}" for p in params),
         PACK="\n".join(f"    x[{k}] = {p};" for k, p in enumerate(params)),
-        NAMES=", ".join(json.dumps(str(v)) for v in model.variables),
+        NAMES=", ".join(c_string(v) for v in model.variables),
         LOWER=", ".join(repr(float(v)) for v in model.scaling.lower),
         UPPER=", ".join(repr(float(v)) for v in model.scaling.upper),
         SPAN=c_array("double", f"{tag}_span", span),
     )
-    decls = _fill(_AERO_DECLS, **subs)
-    impl = c_core(model.spline, tag) + _fill(_AERO_DEFS, **subs)
+    decls = fill_template(_AERO_DECLS, **subs)
+    impl = c_core(model.spline, tag) + fill_template(_AERO_DEFS, **subs)
     return assemble(prefix, c_comment(_model_text(model, outside)), decls, impl,
                     single_header=single_header)

@@ -76,9 +76,29 @@ def c_array(ctype: str, name: str, values, *, per_line: int | None = None) -> st
     return f"static const {ctype} {name}[{len(items)}] = {{\n    {body}\n}};\n"
 
 
+def c_string(text: str) -> str:
+    r"""``text`` as a C string literal that any C compiler reads back as the same bytes.
+
+    Printable ASCII stays as it is except ``"``, ``\`` and ``?`` (trigraphs such as
+    ``??/`` would otherwise become a backslash); those, control characters and the UTF-8
+    bytes of non-ASCII characters are written as three-digit octal escapes, which never
+    absorb a following character.
+
+    >>> print(c_string('a"b??/'))
+    "a\042b\077\077/"
+    """
+    out = []
+    for byte in str(text).encode("utf-8"):
+        char = chr(byte)
+        out.append(char if 32 <= byte < 127 and char not in '"\\?' else f"\\{byte:03o}")
+    return '"' + "".join(out) + '"'
+
+
 def c_comment(text: str, *, width: int = 88) -> str:
-    """A C block comment holding ``text`` (ASCII, no comment terminators)."""
-    text = text.encode("ascii", "backslashreplace").decode().replace("*/", "* /")
+    """A C block comment holding ``text``: ASCII, with no comment terminator and no trigraph
+    (``??`` becomes ``? ?``) left in it."""
+    text = (text.encode("ascii", "backslashreplace").decode().replace("*/", "* /")
+            .replace("??", "? ?").replace("??", "? ?"))
     out = ["/*"]
     for para in text.splitlines():
         if not para.strip():
