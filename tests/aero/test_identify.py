@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from simplexspline.aero.identify import (
+    OUTPUT_MARKER,
     Identification,
     IdentificationSettings,
     ThinDataWarning,
@@ -135,6 +136,60 @@ def test_failed_save_leaves_no_directory_and_keeps_the_old_one(result, tmp_path,
         result.save(tmp_path / "out")
     assert (tmp_path / "out" / "marker").read_text() == "old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+@pytest.fixture
+def no_report(monkeypatch):
+    identify_module = importlib.import_module("simplexspline.aero.identify")
+    monkeypatch.setattr(identify_module, "write_report", lambda res, out, progress=None: None)
+
+
+def _names(d):
+    return sorted(p.name for p in d.iterdir())
+
+
+def test_save_never_touches_foreign_files(result, tmp_path, no_report):
+    """`identify d/input.parquet -o d` must not delete the input (issue 18, item 2)."""
+    d = tmp_path / "d"
+    d.mkdir()
+    (d / "input.parquet").write_bytes(b"the user's data")
+    with pytest.raises(InputError, match=r"holds files that are not a previous "
+                                         r"identification output \(input.parquet\).*"
+                                         r"--overwrite"):
+        result.save(d)
+    assert _names(d) == ["input.parquet"]
+    result.save(d, overwrite=True)
+    assert (d / "input.parquet").read_bytes() == b"the user's data"
+    assert {"models", "summary.json", OUTPUT_MARKER} <= set(_names(d))
+    # a previous output is recognised by its marker: saved again without --overwrite, and
+    # a file the user put in it in between is kept
+    (d / "notes.txt").write_text("mine")
+    result.save(d, model_format="npz")
+    assert (d / "notes.txt").read_text() == "mine"
+    assert _names(d / "models") == ["CZ.npz", "Cm.npz"]
+    assert not [n for n in _names(d) if n.startswith(".identify.")]
+
+
+def test_save_into_the_current_directory(result, tmp_path, monkeypatch, no_report):
+    monkeypatch.chdir(tmp_path)
+    result.save(".")
+    assert {"models", "summary.json", OUTPUT_MARKER} <= set(_names(tmp_path))
+    result.save(".")
+    assert not [n for n in _names(tmp_path) if n.startswith(".identify.")]
+    assert not [n for n in _names(tmp_path.parent) if "identify" in n or ".old." in n]
+
+
+def test_output_dir_checked_before_any_work(tmp_path, capsys):
+    d = tmp_path / "d"
+    d.mkdir()
+    (d / "keep.csv").write_text("x")
+    from simplexspline.cli import main
+
+    assert main(["identify", "-o", str(d), "--maneuvers", "2", "--rounds", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds files that are not a previous identification" in err[0]
+    assert "simulating" not in capsys.readouterr().out
+    assert _names(d) == ["keep.csv"]
 
 
 def test_model_predict_on_named_columns_and_arrays(result, table):

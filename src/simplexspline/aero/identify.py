@@ -34,6 +34,7 @@ from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import multiplier_values, Structure
 from simplexspline.aero.variables import COEFFICIENTS
 from simplexspline.aero.selection.validation import PAPER_TABLE2, scores, split_by_maneuver
+from simplexspline._files import jsonable
 from simplexspline._version import __version__
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.aero.report.page import write_report
@@ -41,10 +42,13 @@ from simplexspline.aero.reconstruction.reconstruct import reconstruct
 from simplexspline.spline import kernels
 
 __all__ = [
+    "OUTPUT_ENTRIES",
+    "OUTPUT_MARKER",
     "CoefficientResult",
     "Identification",
     "IdentificationSettings",
     "ThinDataWarning",
+    "check_output_dir",
     "identify",
 ]
 
@@ -242,58 +246,114 @@ class Identification:
         return out
 
     def save(self, outdir, *, report: bool = True, model_format: str = "json",
-             progress: Callable[[str], None] | None = None) -> Path:
+             progress: Callable[[str], None] | None = None, overwrite: bool = False) -> Path:
         """Write ``summary.json``, ``models/<C>.json`` and (optionally) ``report.html`` +
         ``report.md`` with figures to ``outdir``.
 
-        Everything is written to a temporary directory next to ``outdir`` and renamed into
-        place at the end, so a failure never leaves a half-written output directory. An
-        existing ``outdir`` is replaced only when the new one is complete.
+        Only the project's own entries (:data:`OUTPUT_ENTRIES`) are written or replaced;
+        other files in ``outdir`` are never touched. Everything is first written to a
+        temporary directory inside ``outdir`` and moved into place at the end, so a failure
+        leaves the previous results as they were (and no new directory).
+
+        Parameters
+        ----------
+        overwrite : bool, default False
+            Write into a non-empty directory that is not a previous output (one without
+            the :data:`OUTPUT_MARKER` file). Its other files are kept.
+
+        Raises
+        ------
+        InputError
+            ``outdir`` is a file, its parent does not exist, or it holds other files and
+            ``overwrite`` is False (see :func:`check_output_dir`).
         """
         outdir = Path(outdir)
         if model_format not in ("json", "npz"):
             raise InputError(f"model_format must be 'json' or 'npz', got {model_format!r}")
-        parent = outdir.resolve().parent
-        if not parent.is_dir():
-            raise InputError(f"the parent directory of {str(outdir)!r} does not exist")
-        if outdir.exists() and not outdir.is_dir():
-            raise InputError(f"{str(outdir)!r} exists and is not a directory")
-        tmp = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.", dir=parent))
+        check_output_dir(outdir, overwrite=overwrite)
+        created = not outdir.exists()
+        outdir.mkdir(exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".identify.", suffix=".tmp", dir=outdir))
         try:
             (tmp / "models").mkdir()
             for c, res in self.results.items():
                 res.model.save(tmp / "models" / f"{c}.{model_format}")
             (tmp / "summary.json").write_text(
-                json.dumps(_jsonable(self.summary()), indent=1, allow_nan=True) + "\n",
+                json.dumps(jsonable(self.summary()), indent=1, allow_nan=True) + "\n",
                 encoding="utf-8")
             if report:
                 write_report(self, tmp, progress=progress)
-            if outdir.exists():
-                old = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.old.", dir=parent))
-                os.replace(outdir, old / "x")
-                os.replace(tmp, outdir)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.replace(tmp, outdir)
+            (tmp / OUTPUT_MARKER).write_text(json.dumps(
+                {"format": "simplexspline.identification", "version": 1}) + "\n")
+            _move_entries(tmp, outdir)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
+            if created:
+                shutil.rmtree(outdir, ignore_errors=True)
             raise
+        shutil.rmtree(tmp, ignore_errors=True)
         return outdir
 
 
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating, float)):
-        v = float(obj)
-        return v if np.isfinite(v) else None
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    return obj
+#: The file that marks a directory as an identification output (a previous run's).
+OUTPUT_MARKER = ".simplexspline-identification"
+
+#: The entries an identification output consists of; nothing else in it is touched.
+OUTPUT_ENTRIES = (OUTPUT_MARKER, "models", "figures", "summary.json", "report.html",
+                  "report.md")
+
+
+def check_output_dir(outdir, *, overwrite: bool = False) -> Path:
+    """Check, before any work, that identification results may be written to ``outdir``.
+
+    A new directory, an empty one or a previous output (with :data:`OUTPUT_MARKER`) is
+    fine; a directory holding other files only with ``overwrite`` (their files are kept).
+
+    Raises
+    ------
+    InputError
+        Naming the problem and what to do.
+    """
+    outdir = Path(outdir)
+    if outdir.exists() and not outdir.is_dir():
+        raise InputError(f"output {str(outdir)!r} exists and is not a directory")
+    if not outdir.resolve().parent.is_dir():
+        raise InputError(f"the parent directory of output {str(outdir)!r} does not exist")
+    if outdir.is_dir() and not overwrite and not (outdir / OUTPUT_MARKER).is_file():
+        others = sorted(p.name for p in outdir.iterdir() if not p.name.startswith(".identify."))
+        if others:
+            shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
+            raise InputError(
+                f"output directory {str(outdir)!r} holds files that are not a previous "
+                f"identification output ({shown}): choose a new or empty directory, or "
+                "pass --overwrite (overwrite=True) to write the results beside them")
+    return outdir
+
+
+def _move_entries(new: Path, outdir: Path) -> None:
+    """Replace the output entries of ``outdir`` by those of ``new`` (both in one file
+    system); previous entries the new output does not have are removed (they are ours)."""
+    trash = Path(tempfile.mkdtemp(prefix=".identify.", suffix=".old", dir=outdir))
+    moved: list = []
+    try:
+        for name in reversed(OUTPUT_ENTRIES):          # the marker last
+            if (outdir / name).exists() or (outdir / name).is_symlink():
+                os.replace(outdir / name, trash / name)
+            moved.append(name)
+            if (new / name).exists():
+                os.replace(new / name, outdir / name)
+    except BaseException:
+        for name in moved:                              # put the previous output back
+            target = outdir / name
+            if target.is_dir() and not target.is_symlink():
+                shutil.rmtree(target)
+            elif target.exists() or target.is_symlink():
+                target.unlink()
+            if (trash / name).exists() or (trash / name).is_symlink():
+                os.replace(trash / name, target)
+        raise
+    finally:
+        shutil.rmtree(trash, ignore_errors=True)
 
 
 def file_hash(path) -> str:

@@ -16,7 +16,13 @@ from pathlib import Path
 from simplexspline.cli import arguments
 from simplexspline.aero.config import load_config, parse_structure
 from simplexspline.aero.data.flight_data import read_flight_data
-from simplexspline.aero.identify import IdentificationSettings, ThinDataWarning, file_hash, identify
+from simplexspline.aero.identify import (
+    IdentificationSettings,
+    ThinDataWarning,
+    check_output_dir,
+    file_hash,
+    identify,
+)
 from simplexspline.errors import InputError
 from simplexspline.sim import Campaign
 
@@ -63,6 +69,9 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=arguments.seed, default=None, help="seed of split and folds (0)")
     p.add_argument("--workers", type=arguments.count, default=None,
                    help="processes for simulation and reconstruction (all CPUs)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="write into a non-empty directory that is not a previous output "
+                   "(its other files are kept; only the results' own entries are replaced)")
     p.add_argument("--format", choices=("json", "npz"), default="json",
                    help="model file format (json)")
     p.add_argument("--no-report", action="store_true", help="skip report.html / figures")
@@ -126,11 +135,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--aircraft and --maneuvers describe the simulated default "
                          "campaign; they cannot be used with DATA")
     settings = _settings(args)
-    out = args.output
-    if out.exists() and not out.is_dir():
-        raise InputError(f"output {str(out)!r} exists and is not a directory")
-    if not out.resolve().parent.is_dir():
-        raise InputError(f"the parent directory of output {str(out)!r} does not exist")
+    out = check_output_dir(args.output, overwrite=args.overwrite)  # before any work
     if args.data is None:
         df, meta, source = _simulate(args, log)
     else:
@@ -146,7 +151,8 @@ def run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings():
         # matplotlib's 3-D projection overflows harmlessly on off-screen points
         warnings.filterwarnings("ignore", category=RuntimeWarning, module="mpl_toolkits")
-        result.save(out, report=not args.no_report, model_format=args.format)
+        result.save(out, report=not args.no_report, model_format=args.format,
+                    overwrite=args.overwrite)
     if not args.quiet:
         print()
         print(result.table())
