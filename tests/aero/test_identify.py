@@ -171,12 +171,14 @@ def test_save_never_touches_foreign_files(result, tmp_path, no_report):
 
 
 def test_save_into_the_current_directory(result, tmp_path, monkeypatch, no_report):
-    monkeypatch.chdir(tmp_path)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
     result.save(".")
-    assert {"models", "summary.json", OUTPUT_MARKER} <= set(_names(tmp_path))
+    assert {"models", "summary.json", OUTPUT_MARKER} <= set(_names(work))
     result.save(".")
-    assert not [n for n in _names(tmp_path) if n.startswith(".identify.")]
-    assert not [n for n in _names(tmp_path.parent) if "identify" in n or ".old." in n]
+    assert not [n for n in _names(work) if n.startswith(".identify.")]
+    assert _names(tmp_path) == ["work"]                 # nothing left beside it
 
 
 def test_output_dir_checked_before_any_work(tmp_path, capsys):
