@@ -188,3 +188,31 @@ def test_constructed_spline_validates_coefficients():
 
     with pytest.raises(InputError, match="(?i)coefficients|shape"):
         SimplexSpline(tri, 2, 1, np.zeros((2, ref.num_basis(2, 2) + 1)))
+
+
+@pytest.mark.parametrize("kind", ["grid", "fit"])
+@pytest.mark.parametrize("damage", ["repeat a simplex", "move a vertex"])
+def test_damaged_grid_triangulations_are_refused_on_load(tmp_path, kind, damage):
+    """A repeated simplex or a moved vertex in a grid model file would evaluate the wrong
+    pieces in part of the domain: loading refuses it (issue 18, item 3)."""
+    import json
+
+    from simplexspline import ModelFileError, SimplexSpline, SplineSpace, Triangulation
+
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0, 1, (3000, 2))
+    x = x[x[:, 0] + x[:, 1] < 1.4]                       # the fitted grid drops a corner
+    tri = (Triangulation.grid([0, 0], [1, 1], (3, 3)) if kind == "grid"
+           else Triangulation.fit(x, (3, 3)))
+    spline = SplineSpace(tri, 2, 1).fit(x, x[:, 0] * x[:, 1], on_insufficient="minnorm")
+    path = spline.save(tmp_path / "m.json")
+    np.testing.assert_array_equal(SimplexSpline.load(path).coefficients, spline.coefficients)
+    doc = json.loads(path.read_text())
+    if damage == "repeat a simplex":
+        doc["triangulation"]["simplices"][1] = doc["triangulation"]["simplices"][0]
+    else:
+        doc["triangulation"]["vertices"][4][0] += 0.05
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ModelFileError, match=f"the {kind} triangulation's vertices or "
+                                             "simplices are not those of its grid"):
+        SimplexSpline.load(path)

@@ -525,8 +525,30 @@ class Triangulation:
                     or table.max(initial=-1) >= nsimp or table.min(initial=0) < -1
                     or int((table >= 0).sum()) != nsimp):
                 raise InputError("the grid location table does not match the triangulation")
+            if check:
+                _check_grid_arrays(cls, data, grid, kind)
         return cls(data["vertices"], data["simplices"], _kind=kind, _grid=grid,
                    _check=check and grid is None)
+
+
+def _check_grid_arrays(cls, data: dict, grid: dict, kind: str) -> None:
+    """A grid (or fitted-grid) triangulation read from arrays must be the one its grid
+    describes: rebuilt from the grid and compared, so a damaged file (a repeated or moved
+    simplex or vertex) is refused instead of evaluating wrong pieces."""
+    table = grid["table"]
+    shape = tuple(int(v) for v in grid["shape"])
+    expected = cls._from_grid(grid["lower"], grid["upper"], shape,
+                              None if kind == "grid" else table >= 0, kind=kind)
+    verts = np.asarray(data["vertices"], dtype=float)
+    simp = np.asarray(data["simplices"])
+    ok = (verts.shape == expected.vertices.shape and simp.shape == expected.simplices.shape
+          and np.array_equal(simp, expected.simplices)
+          and np.array_equal(table, expected._grid["table"])
+          and np.allclose(verts, expected.vertices, rtol=1e-12, atol=0.0))
+    if not ok:
+        raise TriangulationError(
+            f"the {kind} triangulation's vertices or simplices are not those of its grid "
+            f"(shape {list(shape)}): the arrays are damaged; re-create or re-save the model")
 
 
 def _ids(ids, most: int = 10) -> str:
