@@ -560,3 +560,24 @@ def test_hostile_names_in_a_spline_export_stay_inside_its_comment(tmp_path):
         assert "injected" not in symbols
     text = (tmp_path / "hostile.c").read_text() + (tmp_path / "hostile.h").read_text()
     assert "??" not in text
+
+
+@pytest.mark.parametrize("change, match", [
+    (lambda a: a["scaling"].__setitem__("lower", a["scaling"]["lower"][:1]),
+     "the scaling has 1 lower and 3 upper bounds"),
+    (lambda a: a["scaling"].__setitem__("upper", a["scaling"]["lower"]),
+     "finite bounds with upper > lower"),
+    (lambda a: a["scaling"]["upper"].__setitem__(1, float("nan")),
+     "finite bounds with upper > lower"),
+])
+def test_damaged_aero_scaling_is_refused_on_load(cz, tmp_path, change, match):
+    """Scaling arrays that disagree with the variables, or empty or NaN ranges, are refused
+    when the file is read, not met later as an IndexError or a C file with lower = 0."""
+    from simplexspline import ModelFileError
+
+    path = cz.save(tmp_path / "cz.json")
+    doc = json.loads(path.read_text())
+    change(doc["metadata"]["aero"])
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ModelFileError, match=match):
+        AeroModel.load(path)

@@ -245,6 +245,9 @@ class AeroModel:
             scaling = Scaling.from_dict(aero["scaling"])
             mscale = tuple(float(v) for v in aero.get("multiplier_scale", ()))
             moffset = tuple(float(v) for v in aero.get("multiplier_offset", (0.0,) * len(mscale)))
+            if not (all(np.isfinite(v) and v > 0 for v in mscale)
+                    and all(np.isfinite(v) for v in moffset)):
+                raise InputError("multiplier scales must be finite and > 0, offsets finite")
         except (KeyError, TypeError, ValueError, InputError) as exc:
             raise ModelFileError(f"{path}: invalid aerodynamic model description: {exc}") \
                 from None

@@ -369,6 +369,16 @@ class Scaling:
     def __post_init__(self):
         if not self.knots:
             object.__setattr__(self, "knots", ((),) * len(self.variables))
+        n = len(self.variables)
+        if not (len(self.lower) == len(self.upper) == len(self.knots) == n):
+            raise InputError(f"the scaling has {len(self.lower)} lower and {len(self.upper)} "
+                             f"upper bounds and {len(self.knots)} breakpoint lists for {n} "
+                             f"variables {list(self.variables)}")
+        lo = np.asarray(self.lower, dtype=float)
+        hi = np.asarray(self.upper, dtype=float)
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
+            raise InputError(f"the scaling needs finite bounds with upper > lower for every "
+                             f"variable, got lower={list(self.lower)}, upper={list(self.upper)}")
 
     @classmethod
     def from_data(cls, x: np.ndarray, variables: Sequence[str],
