@@ -171,3 +171,35 @@ def test_fit_points_outside_triangulation(setup):
     with pytest.raises(OutsideDomainError, match="(?i)outside") as info:
         SimplexSpline.fit(xo, yo, tri, 2, 1)
     np.testing.assert_array_equal(info.value.indices, [len(x)])
+
+
+@pytest.mark.parametrize("where", ["x", "y", "weights", "predict"])
+def test_complex_input_is_refused_not_truncated(where):
+    """numpy would drop the imaginary part with only a ComplexWarning (issue 18, item 9)."""
+    from simplexspline import InputError, SplineSpace, Triangulation
+
+    rng = np.random.default_rng(0)
+    x = rng.uniform(0, 1, (200, 2))
+    y = x[:, 0] + x[:, 1]
+    space = SplineSpace(Triangulation.grid([0, 0], [1, 1], (1, 1)), 1, 0)
+    args = {"x": x, "y": y, "weights": np.ones(len(y))}
+    if where == "predict":
+        with pytest.raises(InputError, match=r"x is complex: give real numbers"):
+            space.fit(x, y).predict(x + 1e-3j)
+        return
+    args[where] = args[where] + 1j
+    with pytest.raises(InputError, match=rf"{where} is complex: give real numbers"):
+        space.fit(args["x"], args["y"], args["weights"])
+
+
+@pytest.mark.parametrize("ndim, degree", [(2, 1000), (5, 30)])
+def test_huge_degree_is_refused_before_any_allocation(ndim, degree):
+    """d = 1000 (or 30 in 5-D) would ask numpy for TiB: a clear message up front."""
+    from simplexspline import InputError, SimplexSpline, SplineSpace, Triangulation
+
+    tri = Triangulation.grid(np.zeros(ndim), np.ones(ndim), (1,) * ndim)
+    with pytest.raises(InputError, match=r"degree \d+ in \d dimensions has [\d,]+ "
+                                         r"B-coefficients, above the limit 6,000"):
+        SplineSpace(tri, degree, 0)
+    with pytest.raises(InputError, match="above the limit"):
+        SimplexSpline(tri, degree, 0, np.zeros((tri.nsimplex, 1)))

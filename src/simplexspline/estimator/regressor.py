@@ -52,14 +52,13 @@ from simplexspline.spline.bform import num_basis
 from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.geometry.outside import AERO_POLICIES, check_policy
 from simplexspline.spline.geometry.triangulation import Triangulation
-from simplexspline.spline.inputs import check_degree
+from simplexspline.spline.inputs import MAX_BASIS_PER_SIMPLEX, check_degree
 
 __all__ = [
     "SimplexSplineRegressor",
     "NotFittedError",
     "TRIANGULATIONS",
     "GRID_SIMPLEX_LIMIT",
-    "MAX_BASIS_PER_SIMPLEX",
     "HAVE_SKLEARN",
 ]
 
@@ -71,10 +70,6 @@ TRIANGULATIONS = ("auto", "grid", "simplex")
 #: the estimator builds; :meth:`Triangulation.fit` materialises the whole grid first.
 #: ``triangulation='auto'`` uses a grid while ``m!`` stays within it (up to 8 features).
 GRID_SIMPLEX_LIMIT = 100_000
-
-#: Largest number of B-coefficients in one simplex (``C(m + d, d)``): a single simplex's
-#: Gram block is a dense square matrix of this order.
-MAX_BASIS_PER_SIMPLEX = 6000
 
 #: Relative tolerance of the box tests in model coordinates (as the locators' INSIDE_TOL).
 _BOX_TOL = 1e-10

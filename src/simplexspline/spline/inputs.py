@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from simplexspline.errors import InputError
 
-__all__ = ["as_points", "as_values", "as_weights", "check_degree"]
+__all__ = ["MAX_BASIS_PER_SIMPLEX", "as_points", "as_values", "as_weights", "check_basis_size",
+           "check_degree"]
 
 
 def _finite(arr: np.ndarray, name: str) -> None:
@@ -18,16 +21,27 @@ def _finite(arr: np.ndarray, name: str) -> None:
         )
 
 
+def _as_float(x, name: str) -> np.ndarray:
+    """``x`` as a float array; complex input is refused (numpy would drop the imaginary
+    part with only a warning)."""
+    try:
+        if np.iscomplexobj(x):
+            raise InputError(f"{name} is complex: give real numbers (for example {name}.real "
+                             "if the imaginary parts are zero)")
+        return np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"{name} must be a numeric array: {exc}") from None
+
+
 def as_points(x, *, name: str = "x", ndim: int | None = None) -> np.ndarray:
     """Points as a finite float array of shape (N, n).
 
     A 1-D array is taken as N points in 1-D when ``ndim`` is 1 (or unknown), or as a single
     point when it has ``ndim > 1`` entries.
     """
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name} must be a numeric array: {exc}") from None
+    arr = _as_float(x, name)
     if arr.ndim == 1:
         if ndim is not None and ndim > 1 and arr.shape[0] == ndim:
             arr = arr[None, :]
@@ -47,10 +61,7 @@ def as_points(x, *, name: str = "x", ndim: int | None = None) -> np.ndarray:
 
 def as_values(y, npts: int, *, name: str = "y") -> np.ndarray:
     """Observations as a finite float array of shape (N,)."""
-    try:
-        arr = np.asarray(y, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name} must be a numeric array: {exc}") from None
+    arr = _as_float(y, name)
     if arr.ndim != 1:
         raise InputError(f"{name} must be one-dimensional with shape ({npts},), got {arr.shape}; "
                          "fit one output at a time")
@@ -86,3 +97,27 @@ def check_degree(degree, continuity) -> tuple[int, int]:
             f"of degree {d} with r >= d is a single global polynomial; lower r or raise d"
         )
     return d, r
+
+
+#: Largest number of B-coefficients per simplex, d_hat = C(n + d, d): one Gram block is
+#: d_hat^2 doubles (6000: 288 MB), and the smoothness conditions grow with it.
+MAX_BASIS_PER_SIMPLEX = 6000
+
+
+def check_basis_size(ndim: int, degree: int) -> int:
+    """d_hat = C(n + d, d) for a space of degree ``degree`` in ``ndim`` dimensions, checked
+    against :data:`MAX_BASIS_PER_SIMPLEX` before anything of that size is allocated.
+
+    Raises
+    ------
+    InputError
+        Naming d_hat and what to lower.
+    """
+    dhat = math.comb(int(ndim) + int(degree), int(degree))
+    if dhat > MAX_BASIS_PER_SIMPLEX:
+        raise InputError(
+            f"a polynomial piece of degree {degree} in {ndim} dimensions has {dhat:,} "
+            f"B-coefficients, above the limit {MAX_BASIS_PER_SIMPLEX:,} "
+            "(MAX_BASIS_PER_SIMPLEX): lower the degree, or split the variables into "
+            "smaller models")
+    return dhat

@@ -41,7 +41,7 @@ from simplexspline.spline.fit.penalty import solve_penalized
 from simplexspline.spline.formats.model_file import ModelRecord, read_model, save_spline
 from simplexspline.spline.geometry.barycentric import direction_coordinates
 from simplexspline.spline.geometry.outside import locate
-from simplexspline.spline.inputs import as_points, check_degree
+from simplexspline.spline.inputs import as_points, check_basis_size, check_degree
 from simplexspline.spline.uncertainty.intervals import ARRAYS as STATISTICS_ARRAYS
 from simplexspline.spline.uncertainty.intervals import Uncertainty
 
@@ -83,6 +83,7 @@ class SplineSpace:
     def __init__(self, triangulation, degree: int, continuity: int, facet_continuity=None):
         self.triangulation = triangulation
         self.degree, self.continuity = check_degree(degree, continuity)
+        check_basis_size(triangulation.ndim, self.degree)
         self.facet_continuity = None
         if facet_continuity is not None:
             fc = np.asarray(facet_continuity)
@@ -267,6 +268,7 @@ class SimplexSpline:
                  space=None, info=None, metadata: dict | None = None):
         self.triangulation = triangulation
         self.degree, self.continuity = check_degree(degree, continuity)
+        check_basis_size(triangulation.ndim, self.degree)
         coef = np.asarray(coefficients, dtype=float)
         shape = (triangulation.nsimplex, num_basis(triangulation.ndim, self.degree))
         if coef.shape != shape:
