@@ -260,3 +260,16 @@ def test_thin_simplices_warn(table):
         res = identify(table, settings=settings)
     assert any(issubclass(w.category, ThinDataWarning) for w in caught)
     assert len(res.results["CZ"].thin) > 0 and res.warnings
+
+
+@pytest.mark.parametrize("change, match", [
+    ({"thin_factor": float("-inf")}, "thin_factor must be a finite number >= 0"),
+    ({"thin_factor": float("nan")}, "thin_factor must be a finite number >= 0"),
+    ({"seed": -1}, "seed must be an integer between 0 and"),
+    ({"seed": 1.5}, "seed must be an integer between 0 and"),
+    ({"workers": 0}, "workers must be an integer >= 1 or None"),
+])
+def test_settings_are_validated_before_any_work(change, match):
+    """Bad settings fail when the settings are made, not after the whole run."""
+    with pytest.raises(InputError, match=match):
+        IdentificationSettings(**change)

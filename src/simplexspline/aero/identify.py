@@ -10,6 +10,7 @@ flight data -> reconstruction (when the table holds raw sensor channels) -> coef
 from __future__ import annotations
 
 import hashlib
+import math
 import json
 import os
 import shutil
@@ -114,6 +115,18 @@ class IdentificationSettings:
         if not 0.0 < self.validation_fraction < 1.0:
             raise InputError("validation_fraction must be in (0, 1), got "
                              f"{self.validation_fraction!r}")
+        if not (isinstance(self.thin_factor, (int, float)) and math.isfinite(self.thin_factor)
+                and self.thin_factor >= 0):
+            raise InputError(f"thin_factor must be a finite number >= 0, got "
+                             f"{self.thin_factor!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) \
+                or not 0 <= self.seed < 2**32:
+            raise InputError(f"seed must be an integer between 0 and {2**32 - 1}, got "
+                             f"{self.seed!r}")
+        if self.workers is not None and (isinstance(self.workers, bool)
+                                         or not isinstance(self.workers, (int, np.integer))
+                                         or self.workers < 1):
+            raise InputError(f"workers must be an integer >= 1 or None, got {self.workers!r}")
 
     def starting_structures(self) -> dict:
         base = preset(self.preset)
