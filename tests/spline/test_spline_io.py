@@ -216,3 +216,63 @@ def test_damaged_grid_triangulations_are_refused_on_load(tmp_path, kind, damage)
     with pytest.raises(ModelFileError, match=f"the {kind} triangulation's vertices or "
                                              "simplices are not those of its grid"):
         SimplexSpline.load(path)
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), {1, 2}])
+def test_unwritable_metadata_is_a_clear_error_and_writes_nothing(tmp_path, value):
+    from simplexspline import ModelFileError, SimplexSpline, Triangulation
+
+    spline = SimplexSpline(Triangulation.grid([0], [1], (2,)), 1, 0, np.zeros((2, 2)),
+                           metadata={"note": value})
+    with pytest.raises(ModelFileError, match="metadata must be JSON-serialisable, without "
+                                             "NaN or infinity"):
+        spline.save(tmp_path / "m.json")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("text", [
+    '{"format": "simplexspline.model", "version": 1, "degree": 1, "continuity": 0, '
+    '"triangulation": [1, 2], "coefficients": [[0, 0]]}',
+    '{"format": "simplexspline.model", "version": 1, "metadata": '
+    + "[" * 100_000 + "]" * 100_000 + "}",
+])
+def test_malformed_json_structure_is_a_model_file_error(tmp_path, text):
+    """Wrong JSON shapes and JSON nested 100k deep: ModelFileError, never AttributeError or
+    RecursionError."""
+    from simplexspline import ModelFileError, SimplexSpline
+
+    path = tmp_path / "m.json"
+    path.write_text(text)
+    with pytest.raises(ModelFileError, match="corrupt or unreadable model file"):
+        SimplexSpline.load(path)
+
+
+def test_an_npz_header_claiming_huge_arrays_is_a_model_file_error(tmp_path):
+    """A crafted npz whose array header claims 1e13 floats: no MemoryError traceback."""
+    import io
+    import zipfile
+
+    from simplexspline import ModelFileError, SimplexSpline
+
+    header = ("{'descr': '<f8', 'fortran_order': False, 'shape': (10000000000000,), }"
+              .ljust(117) + "\n")
+    npy = b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode()
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("header.npy",
+                   _npy_of(np.array('{"format": "simplexspline.model", "version": 1}')))
+        z.writestr("coefficients.npy", npy + b"\0" * 64)
+        z.writestr("vertices.npy", npy + b"\0" * 64)
+    path = tmp_path / "bomb.npz"
+    path.write_bytes(buf.getvalue())
+    with pytest.raises(ModelFileError, match=r"bomb.npz: (the model file declares arrays too "
+                                             r"large|corrupt or unreadable)"):
+        SimplexSpline.load(path)
+
+
+def _npy_of(array) -> bytes:
+    import io
+
+    out = io.BytesIO()
+    np.save(out, array)
+    return out.getvalue()

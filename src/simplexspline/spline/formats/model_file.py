@@ -160,9 +160,10 @@ def save_spline(spline, path, *, statistics: bool = True) -> Path:
     arrays = {k: np.asarray(v) for k, v in tri.items() if k != "kind"}
     header["triangulation_kind"] = tri["kind"]
     try:
-        json.dumps(header["metadata"])
+        json.dumps(header["metadata"], allow_nan=False)
     except (TypeError, ValueError) as exc:
-        raise ModelFileError(f"metadata must be JSON-serialisable: {exc}") from None
+        raise ModelFileError(f"metadata must be JSON-serialisable, without NaN or infinity "
+                             f"(store those as None or strings): {exc}") from None
     unc = getattr(spline, "uncertainty", None) if statistics else None
     stats_arrays = {}
     if unc is not None:
@@ -237,7 +238,10 @@ def read_model(path) -> ModelRecord:
                            has_statistics="statistics" in doc)
     except ModelFileError:
         raise
-    except (OSError, ValueError, KeyError, TypeError, AttributeError, zipfile.BadZipFile,
-            EOFError) as exc:
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError,
+            zipfile.BadZipFile, EOFError, RecursionError) as exc:
         raise ModelFileError(f"{path}: corrupt or unreadable model file "
-                             f"({type(exc).__name__}: {exc})") from None
+                             f"({type(exc).__name__}: {str(exc)[:200]})") from None
+    except MemoryError:
+        raise ModelFileError(f"{path}: the model file declares arrays too large for this "
+                             "machine's memory: it is damaged or hostile") from None
