@@ -101,3 +101,29 @@ def test_main_job_simulates_a_campaign_without_data(tmp_path):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["aircraft"] == "f16" and "Cm" in summary["coefficients"]
     assert (tmp_path / "out" / "models" / "Cm.json").is_file()
+
+
+def test_nan_gaps_and_rejected_maneuvers_are_said_on_the_console(noisy_campaign, tmp_path,
+                                                                  capsys):
+    """A NaN burst in alpha is reported on the console, and so is a maneuver the
+    reconstruction rejects for a long gap (issue 18, item 8)."""
+    df = noisy_campaign.copy()
+    mans = df["maneuver"].to_numpy()
+    first, second = np.unique(mans)[:2]
+    burst = np.flatnonzero(mans == first)[100:160]
+    rows = np.flatnonzero(mans == second)
+    gap = rows[len(rows) // 8: len(rows) // 8 + int(0.74 * len(rows))]
+    df.loc[df.index[burst], "alpha"] = np.nan
+    df.loc[df.index[gap], "q"] = np.nan              # an IMU input: the filter cannot run
+    path = tmp_path / "gappy.parquet"
+    write_flight_data(df, path)
+    code = main(["identify", str(path), "-o", str(tmp_path / "out"), "--coefficients", "Cm",
+                 "--rounds", "0", "--no-report"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert "warning: flight data:" in out.err and "NaN gap(s) in column(s) ['alpha'" in out.err
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    rejected = summary["provenance"]["reconstruction"]["rejected"]
+    assert str(int(second)) in rejected
+    assert f"warning: the reconstruction rejected {len(rejected)} maneuver(s): maneuver " \
+           f"{int(second)}: " in out.out

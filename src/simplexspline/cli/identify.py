@@ -15,7 +15,7 @@ from pathlib import Path
 
 from simplexspline.cli import arguments
 from simplexspline.aero.config import load_config, parse_structure
-from simplexspline.aero.data.flight_data import read_flight_data
+from simplexspline.aero.data.flight_data import FlightDataWarning, read_flight_data
 from simplexspline.aero.identify import (
     IdentificationSettings,
     ThinDataWarning,
@@ -139,7 +139,14 @@ def run(args: argparse.Namespace) -> int:
     if args.data is None:
         df, meta, source = _simulate(args, log)
     else:
-        df, meta = read_flight_data(args.data, nan="ignore")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", FlightDataWarning)
+            df, meta = read_flight_data(args.data, nan="warn")
+        for w in caught:                 # NaN gaps: said on the console, not only in files
+            if issubclass(w.category, FlightDataWarning):
+                print(f"warning: {w.message}", file=sys.stderr)
+            else:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         source = f"{args.data.name} ({file_hash(args.data)})"
     progress = not args.quiet and sys.stderr.isatty()
     with warnings.catch_warnings():
@@ -156,6 +163,13 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print()
         print(result.table())
+        rejected = (result.provenance.get("reconstruction") or {}).get("rejected") or {}
+        if rejected:
+            shown = "; ".join(f"maneuver {k}: {v}" for k, v in list(rejected.items())[:5])
+            more = f" (and {len(rejected) - 5} more, see summary.json)" if len(rejected) > 5 \
+                else ""
+            print(f"warning: the reconstruction rejected {len(rejected)} maneuver(s): "
+                  f"{shown}{more}")
         for w in result.warnings:
             print(f"warning: {w}")
         print(f"\n{out}/summary.json, {out}/models/, "
