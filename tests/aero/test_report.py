@@ -18,7 +18,8 @@ from simplexspline.aero.report.page import write_report
 from simplexspline.aero.selection.search import SelectionSettings
 from simplexspline.aero.modelling.structure import Structure
 
-EVIL = "test<script>alert('x')</script>&co"
+EVIL = ("test<script>alert('x')</script>&co`<img src=x onerror=alert(1)>`"
+        "[c](javascript:alert(1))*x*_y_")
 
 
 def _truth(alpha, beta, mach, de, da, dr, phat, qhat, rhat) -> dict:
@@ -94,7 +95,8 @@ def test_files_written(report):
 def test_html_self_contained(report):
     _, _, path, _ = report
     text = path.read_text(encoding="utf-8")
-    srcs = re.findall(r"""\bsrc\s*=\s*["']?([^"' >]*)""", text, flags=re.IGNORECASE)
+    srcs = re.findall(r"""<img\b[^>]*\bsrc\s*=\s*["']?([^"' >]*)""", text,
+                      flags=re.IGNORECASE)
     assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
     assert "<link" not in text.lower() and "<script" not in text.lower()
     assert "href=\"http" not in text and "@import" not in text
@@ -120,7 +122,8 @@ def test_coefficient_sections(report):
     md = (path.parent / "report.md").read_text(encoding="utf-8")
     for c, r in res.results.items():
         assert f'id="coef-{c}"' in text
-        assert r.structure.label() in text and r.structure.label() in md
+        label = r.structure.label()
+        assert label in text and label.replace("_", "\\_").replace("*", "\\*") in md
         for fig in ("slices", "validation", "diagnostics", "triangulation", "selection"):
             assert f"figures/{c}_{fig}.png" in md
         # every tried structure of the selection history is listed
@@ -169,3 +172,19 @@ def test_projected_edges_unique():
     pts3 = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
     seg3 = projected_edges(pts3[:, :2], np.array([[0, 1, 2, 3]]))
     assert len(seg3) == 3 and np.all(np.any(seg3[:, 0] != seg3[:, 1], axis=1))
+
+
+def test_markdown_report_renders_no_markup_from_data(report):
+    """report.md through a CommonMark renderer (raw HTML allowed, as GitHub's is): data such
+    as a hostile aircraft name yields no element, link or image of its own (issue 18, 6)."""
+    markdown_it = pytest.importorskip("markdown_it")
+    _, outdir, _, _ = report
+    html = markdown_it.MarkdownIt("commonmark").render(
+        (outdir / "report.md").read_text(encoding="utf-8"))
+    assert "<script" not in html and "javascript:" not in html.replace("javascript:alert", "")
+    assert not re.search(r"<a\s", html)
+    imgs = re.findall(r"<img\s[^>]*>", html)
+    assert imgs and all(re.search(r'src="figures/[^"]+\.png"', tag) for tag in imgs)
+    assert "<em>" not in html.split("<h2>")[0]                 # no *x* / _y_ emphasis
+    title = re.search(r"<h1>(.*?)</h1>", html).group(1)
+    assert "&lt;img src=x onerror=alert(1)&gt;" in title and "[c](javascript:alert(1))" in title

@@ -7,6 +7,8 @@ HTML and Markdown escaping, and the HTML and Markdown tables of
 """
 
 from __future__ import annotations
+
+import re
 from simplexspline.aero.variables import UNITS
 
 import html
@@ -35,9 +37,26 @@ def _md(value) -> str:
     return _md_text(value).replace("|", "\\|").replace("\n", " ")
 
 
+#: Characters that would make Markdown syntax out of data (code spans, emphasis, links).
+_MD_SYNTAX = re.compile(r"([\\`*_\[\]])")
+
+
 def _md_text(value) -> str:
-    """Text for a Markdown paragraph (no raw HTML: ``&`` and ``<`` escaped)."""
-    return str(value).replace("&", "&amp;").replace("<", "&lt;")
+    """Text for a Markdown paragraph: no raw HTML (``&`` and ``<`` as entities) and no
+    Markdown syntax from data (backslash, backtick, ``*``, ``_``, ``[``, ``]`` escaped), so
+    a hostile variable name renders as the text it is."""
+    text = str(value).replace("&", "&amp;").replace("<", "&lt;")
+    return _MD_SYNTAX.sub(r"\\\1", text)
+
+
+def _md_code(value) -> str:
+    """``value`` as one Markdown code span whose fence is longer than any run of backticks
+    inside it (CommonMark), so data cannot close the span early."""
+    text = str(value).replace("\n", " ")
+    run = max((len(m) for m in re.findall(r"`+", text)), default=0)
+    fence = "`" * (run + 1)
+    pad = " " if run else ""
+    return f"{fence}{pad}{text}{pad}{fence}"
 
 
 def _unit(var: str) -> tuple[str, float]:

@@ -52,6 +52,7 @@ from simplexspline.aero.report.figures import (
     _fig_validation,
 )
 from simplexspline.aero.report.markup import (
+    _md_code,
     _column,
     _esc,
     _fmt,
@@ -343,7 +344,7 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
     if rec_lines:
         M += ["", "Reconstruction:", "", "```", *rec_lines, "```"]
     M += ["", "Settings:", ""]
-    M += [f"- {_md_text(k)}: `{json.dumps(v, default=str)[:2000]}`"
+    M += [f"- {_md_text(k)}: {_md_code(json.dumps(v, default=str)[:2000])}"
           for k, v in settings_dict.items()] + [""]
     if identification.warnings:
         M += ["Warnings:", ""] + [f"- {_md_text(w)}" for w in identification.warnings] + [""]
