@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 
 import pytest
 
@@ -96,3 +97,29 @@ def test_written_files_follow_the_umask(tmp_path, mask):
         os.umask(old)
     for name in ("one.json", "t.csv", "t.csv.json"):
         assert (tmp_path / name).stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_stale_temporaries_of_a_killed_run_are_removed_by_the_next_write(tmp_path):
+    target = tmp_path / "model.json"
+    stale = tmp_path / ".model.json.abc123.tmp"
+    fresh = tmp_path / ".model.json.def456.tmp"          # a writer still at work
+    other = tmp_path / ".other.json.xyz.tmp"
+    for p in (stale, fresh, other):
+        p.write_text("partial")
+    old = time.time() - 2 * _files.STALE_AFTER_S
+    os.utime(stale, (old, old))
+    os.utime(other, (old, old))
+    write_text(target, "{}")
+    assert _listing(tmp_path) == sorted([".model.json.def456.tmp", ".other.json.xyz.tmp",
+                                         "model.json"])
+
+
+def test_remove_stale_takes_directories_and_ignores_young_ones(tmp_path):
+    old_dir = tmp_path / ".identify.1.tmp"
+    (old_dir / "models").mkdir(parents=True)
+    young = tmp_path / ".identify.2.tmp"
+    young.mkdir()
+    old = time.time() - 2 * _files.STALE_AFTER_S
+    os.utime(old_dir, (old, old))
+    assert _files.remove_stale(tmp_path, ".identify.*") == [old_dir]
+    assert _listing(tmp_path) == [".identify.2.tmp"]

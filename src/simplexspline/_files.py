@@ -11,13 +11,17 @@ from __future__ import annotations
 import math
 import os
 import secrets
+import shutil
 import tempfile
+import time
 from collections.abc import Callable, Mapping
+from glob import escape as glob_escape
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_write", "jsonable", "write_bytes", "write_text", "write_together"]
+__all__ = ["STALE_AFTER_S", "atomic_write", "jsonable", "remove_stale", "write_bytes",
+           "write_text", "write_together"]
 
 
 def _umask() -> int:
@@ -41,6 +45,40 @@ def _as_if_created(tmp: str | os.PathLike) -> None:
     os.chmod(tmp, 0o666 & ~_umask())
 
 
+#: Temporary files and directories older than this [s] were left by a killed run: the next
+#: write to the same target removes them (younger ones may belong to a live writer).
+STALE_AFTER_S = 3600.0
+
+
+def remove_stale(directory: str | os.PathLike, pattern: str,
+                 older_than_s: float = STALE_AFTER_S) -> list[Path]:
+    """Remove the temporaries matching ``pattern`` in ``directory`` that a killed run left.
+
+    Only entries whose modification time is older than ``older_than_s`` are removed, so a
+    writer still at work keeps its files. Errors (an entry vanishing meanwhile, no
+    permission) are ignored: cleaning up never stops a write.
+
+    Returns
+    -------
+    list of Path
+        The entries removed.
+    """
+    removed = []
+    now = time.time()
+    for entry in Path(directory).glob(pattern):
+        try:
+            if now - entry.lstat().st_mtime < older_than_s:
+                continue
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry)
+            else:
+                entry.unlink()
+            removed.append(entry)
+        except OSError:
+            continue
+    return removed
+
+
 def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Path:
     """Call ``write(tmp_path)`` for a temporary file next to ``path``, then rename it.
 
@@ -61,6 +99,7 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Pat
         ``path``.
     """
     path = Path(path)
+    remove_stale(path.parent, f".{glob_escape(path.name)}.*.tmp")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:

@@ -35,7 +35,7 @@ from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import multiplier_values, Structure
 from simplexspline.aero.variables import COEFFICIENTS
 from simplexspline.aero.selection.validation import PAPER_TABLE2, scores, split_by_maneuver
-from simplexspline._files import jsonable
+from simplexspline._files import jsonable, remove_stale
 from simplexspline._version import __version__
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.aero.report.page import write_report
@@ -286,6 +286,7 @@ class Identification:
         check_output_dir(outdir, overwrite=overwrite)
         created = not outdir.exists()
         outdir.mkdir(exist_ok=True)
+        remove_stale(outdir, ".identify.*")       # left by a killed run (older than 1 h)
         tmp = Path(tempfile.mkdtemp(prefix=".identify.", suffix=".tmp", dir=outdir))
         try:
             (tmp / "models").mkdir()
