@@ -123,3 +123,4 @@ def test_remove_stale_takes_directories_and_ignores_young_ones(tmp_path):
     os.utime(old_dir, (old, old))
     assert _files.remove_stale(tmp_path, ".identify.*") == [old_dir]
     assert _listing(tmp_path) == [".identify.2.tmp"]
+

@@ -26,6 +26,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
+from simplexspline._workers import ignore_interrupts
 from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile, Envelope, get_aircraft
@@ -401,7 +402,8 @@ class Executor:
                 return
             if self.pool is None:
                 self.pool = ProcessPoolExecutor(
-                    max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+                    max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                    initializer=ignore_interrupts)
             futures = {self.pool.submit(func, specs[i]): i for i in order}
             try:
                 for fut in as_completed(futures):

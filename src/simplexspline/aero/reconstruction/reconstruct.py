@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from simplexspline._workers import ignore_interrupts
 from simplexspline._files import jsonable
 from simplexspline.aero.data.coefficients import aerodynamic_coefficients
 from simplexspline.aero.data.flight_data import validate_flight_data
@@ -448,7 +449,8 @@ def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
                 bar.update(1)
             return results
         ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                 initializer=ignore_interrupts) as pool:
             futures = {pool.submit(reconstruct_maneuver, payload[i], settings): i
                        for i in order}
             for fut in as_completed(futures):

@@ -14,6 +14,7 @@ import io
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from simplexspline._workers import ignore_interrupts
 from simplexspline.aero.report.markup import _esc, _md
 
 #: Dots per inch of the PNG figures.
@@ -93,7 +94,8 @@ def _render(jobs: list, workers: int, say: Callable[[str], None]) -> list:
                     # Python >= 3.12 warns about fork() in a multi-threaded process; the
                     # workers only run numpy and matplotlib
                     warnings.simplefilter("ignore", DeprecationWarning)
-                    with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=ctx) as pool:
+                    with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=ctx,
+                                             initializer=ignore_interrupts) as pool:
                         futures = {pool.submit(_run_job, i): i for i in range(len(jobs))}
                         for fut in as_completed(futures):
                             i = futures[fut]
