@@ -76,10 +76,18 @@ def test_identify_scores_against_measurement_and_truth(result, table):
     # 840 coefficients from ~7,000 samples, ~sqrt(840/7000) of the noise) is below the noise
     assert v["rms_true"] < 0.6 * noise
     assert v["rms"] == pytest.approx(np.hypot(noise, v["rms_true"]), rel=0.1)
-    # Eq. 54-55 with the square root: relative RMS = RMS / range of the measurement
-    y = result.validation["CZ"].to_numpy()
-    e = y - result.validation["model_CZ"].to_numpy()
+    # Eq. 54-55 with the square root: relative RMS = RMS / range of the measurement, on
+    # the validation samples inside the identification data's envelope; the rest apart
+    inside = result.validation["inside_envelope"].to_numpy()
+    assert v["coverage"] == pytest.approx(inside.mean()) and inside.mean() > 0.8
+    y = result.validation["CZ"].to_numpy()[inside]
+    e = y - result.validation["model_CZ"].to_numpy()[inside]
     assert v["rms"] == pytest.approx(np.sqrt(np.mean(e**2)))
+    if not inside.all():
+        out = result.validation.loc[~inside]
+        assert v["outside"]["n"] == len(out)
+        assert v["outside"]["rms"] == pytest.approx(np.sqrt(np.mean(
+            (out["CZ"] - out["model_CZ"]).to_numpy() ** 2)))
     assert v["rrms"] == pytest.approx(v["rms"] / (y.max() - y.min()))
     assert v["r2"] > 0.999
     # validation maneuvers are whole and disjoint from the identification ones

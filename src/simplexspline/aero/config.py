@@ -4,7 +4,7 @@ A config file (all tables and keys optional)::
 
     [identify]
     coefficients = ["CX", "CY", "CZ", "Cl", "Cm", "Cn"]
-    preset = "paper"           # starting structures: 'paper' | 'varying' | 'f16'
+    preset = "auto"            # starting structures: 'auto' | 'paper' | 'varying' | 'f16'
 
     validation_fraction = 0.25
     seed = 0
@@ -13,13 +13,17 @@ A config file (all tables and keys optional)::
     thin_factor = 2.0
 
     [selection]
-    candidates = ["alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr"]
+    candidates = ["alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr",
+                  "alphadot_hat", "betadot_hat", "flap", "gear", "speedbrake", "dte", "mass"]
     max_rounds = 6
     folds = 3
     min_improvement = 0.01
     max_degree = 5
     max_resolution = 6
     max_variables = 5
+    max_schedule = 3           # scheduling variables of a varying-coefficient structure
+    screen = 3                 # 'add multiplier' and 'schedule on' moves tried per round
+    combine = 3                # other improving moves tried on top of a round's best
     max_coefficients = 12000
     max_samples = 150000
     min_points = 10

@@ -12,17 +12,21 @@ from __future__ import annotations
 import hashlib
 import math
 import json
+import multiprocessing
 import os
 import shutil
 import tempfile
 import time
 import warnings
 from collections.abc import Callable, Mapping
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from simplexspline.aero.data.angle_rates import ANGLE_RATE_NAMES, angle_rates
+from simplexspline.aero.modelling.auto import restrict_to_data
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.search import (
     SelectionSettings,
@@ -33,9 +37,17 @@ from simplexspline.aero.selection.search import (
 )
 from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import multiplier_values, Structure
-from simplexspline.aero.variables import COEFFICIENTS
-from simplexspline.aero.selection.validation import PAPER_TABLE2, scores, split_by_maneuver
+from simplexspline.aero.selection.coverage import EnvelopeCells
+from simplexspline.aero.selection.diagnostics import collinearity, excitation
+from simplexspline.aero.variables import COEFFICIENTS, ENVELOPE_VARIABLES
+from simplexspline.aero.selection.validation import (
+    PAPER_TABLE2,
+    scores,
+    scores_by_coverage,
+    split_by_maneuver,
+)
 from simplexspline._files import jsonable, remove_stale
+from simplexspline._workers import ignore_interrupts
 from simplexspline._version import __version__
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.aero.report.page import write_report
@@ -69,9 +81,10 @@ class IdentificationSettings:
     ----------
     coefficients : tuple of str
         Coefficients to model (default all six, CX..Cn).
-    preset : {'paper', 'varying', 'f16'}
+    preset : {'auto', 'paper', 'varying', 'f16'}
         Where the starting structures come from (see
-        :func:`~simplexspline.aero.modelling.structure.preset`).
+        :func:`~simplexspline.aero.modelling.presets.preset`): 'auto' (default) starts
+        from knowledge-free structures; the others carry prior knowledge.
     structures : dict of str to Structure, optional
         Starting (or fixed) structures overriding the preset's.
     select : bool
@@ -86,14 +99,15 @@ class IdentificationSettings:
         Flight path reconstruction: 'auto' runs it unless the table already has the
         coefficient columns ``CX..Cn`` and ``phat, qhat, rhat``.
     workers : int or None
-        Processes for the reconstruction (None: all CPUs).
+        Processes for the reconstruction and for the coefficients' searches and fits
+        (None: all CPUs; 1: everything in this process).
     thin_factor : float
         A simplex is reported as thinly covered when it holds fewer than
         ``thin_factor * d_hat`` identification samples.
     """
 
     coefficients: tuple = COEFFICIENTS
-    preset: str = "paper"
+    preset: str = "auto"
     structures: Mapping | None = None
     select: bool = True
     selection: SelectionSettings = field(default_factory=SelectionSettings)
@@ -163,6 +177,10 @@ class CoefficientResult:
         Simplices holding fewer than ``thin_factor * d_hat`` samples.
     seconds : float
         Wall time of selection + fit.
+    diagnostics : dict
+        ``excitation`` (:func:`~simplexspline.aero.selection.diagnostics.excitation` of
+        the validation data) and ``collinearity`` (per input variable: VIF, most
+        correlated partner, standard error of its linear derivative).
     """
 
     model: AeroModel
@@ -172,6 +190,7 @@ class CoefficientResult:
     counts: np.ndarray
     thin: np.ndarray
     seconds: float = 0.0
+    diagnostics: dict = field(default_factory=dict)
 
     @property
     def structure(self) -> Structure:
@@ -187,7 +206,8 @@ class Identification:
     results : dict of str to CoefficientResult
     identification, validation : pandas.DataFrame
         The coefficient data (reconstructed when needed) split by maneuver, with the model
-        outputs ``model_<C>`` added to ``validation``.
+        outputs ``model_<C>`` and ``inside_envelope`` (bool: the sample lies where the
+        identification data are; the scores count those) added to ``validation``.
     settings : IdentificationSettings
     metadata : dict
         Flight-data metadata.
@@ -209,9 +229,10 @@ class Identification:
         return all(f"true_{c}" in self.validation.columns for c in self.results)
 
     def table(self) -> str:
-        """The Table-2 style validation table (plain text)."""
+        """The Table-2 style validation table (plain text): scores on the validation
+        samples inside the identification data's envelope (``inside``: their share)."""
         head = (f"{'model':<44} {'simplices':>9} {'RMS':>10} {'rel. RMS':>9} {'R2':>7} "
-                f"{'paper':>7}")
+                f"{'paper':>7} {'inside':>7}")
         if self.has_truth:
             head += f" {'RMS true':>10} {'rel. true':>9} {'noise RMS':>10}"
         lines = [head, "-" * len(head)]
@@ -220,7 +241,8 @@ class Identification:
             paper = PAPER_TABLE2.get(c)
             line = (f"{res.structure.label():<44} {res.model.spline.triangulation.nsimplex:>9d}"
                     f" {v['rms']:>10.3e} {100 * v['rrms']:>8.2f}% {v['r2']:>7.4f} "
-                    f"{'' if paper is None else f'{100 * paper:.2f}%':>7}")
+                    f"{'' if paper is None else f'{100 * paper:.2f}%':>7}"
+                    f" {100 * v.get('coverage', 1.0):>6.1f}%")
             if self.has_truth:
                 line += (f" {v['rms_true']:>10.3e} {100 * v['rrms_true']:>8.3f}%"
                          f" {v['noise_rms']:>10.3e}")
@@ -252,9 +274,12 @@ class Identification:
                      "paper_rrms": PAPER_TABLE2.get(c),
                      "seconds": round(res.seconds, 3),
                      "selection": [t.to_dict() for t in res.history]}
-            for k in ("rms_true", "rrms_true", "noise_rms", "rms_true_over_noise"):
+            for k in ("rms_true", "rrms_true", "noise_rms", "rms_true_over_noise",
+                      "coverage", "outside"):
                 if k in v:
                     entry[k] = v[k]
+            if res.diagnostics:
+                entry["diagnostics"] = res.diagnostics
             out["coefficients"][c] = entry
         return out
 
@@ -447,12 +472,12 @@ def identify(df, metadata: Mapping | None = None, *,
     meta = dict(df.attrs if metadata is None else metadata)
     structures = settings.starting_structures()
     data, rec_note, used = _identification_data(df, meta, settings, structures, progress, log)
-    ident, valid = _split(data, settings, log)
+    ident, valid, coverage = _split(data, settings, log)
     columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
                if c in used or c in settings.selection.candidates}
     columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
-    results, notes = _fit_coefficients(structures, ident, valid, columns, settings, source,
-                                       progress, log)
+    results, notes = _fit_coefficients(structures, ident, valid, columns, coverage, settings,
+                                       source, progress, log)
     prov = {"software": f"simplexspline {__version__}",
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "seconds": round(time.perf_counter() - t_start, 2),
@@ -472,32 +497,60 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
                               "by maneuver")
     if len(df) == 0:
         raise FlightDataError("the flight data table is empty")
-    # Fail before the (long) reconstruction when a structure names an unknown column.
-    _check_columns(df, structures, (), extra=_RECONSTRUCTED)
+    # Fail before the (long) reconstruction when a structure the user gave names an
+    # unknown column; a preset's structures are restricted to the data instead.
+    given = dict(settings.structures or {})
+    _check_columns(df, given, (), extra=(*_RECONSTRUCTED, *ANGLE_RATE_NAMES))
     data, rec_note = _coefficient_data(df, meta, settings, progress, log)
     data = data.copy(deep=False)
     data.attrs = {}
-    _check_columns(data, structures, settings.coefficients)
-    used = sorted({v for s in structures.values() for v in s.inputs}
-                  | set(settings.coefficients)
-                  | ({v for v in settings.selection.candidates if v in data.columns}
-                     if settings.select else set()))
-    bad_rows = ~np.all(np.isfinite(data[used].to_numpy(dtype=float)), axis=1)
+    for name, values in angle_rates(data, meta).items():
+        if name not in data.columns:        # derived candidates: alpha', beta' made
+            data[name] = values             # non-dimensional like the body rates
+    _check_columns(data, given, settings.coefficients)
+    # the structures' columns that the data have must be clean (a preset's missing ones
+    # are left out later); candidates of the search with gaps are only not offered
+    def present(v):     # a column that is entirely NaN is a sensor the aircraft lacks
+        return v in data.columns and bool(np.isfinite(data[v].to_numpy(dtype=float)).any())
+
+    required = set(settings.coefficients) | {v for s in given.values() for v in s.inputs} \
+        | {v for s in structures.values() for v in s.inputs if present(v)}
+    wanted = set(settings.selection.candidates) if settings.select else set()
+    wanted = {v for v in wanted - required if present(v)}
+    unusable = sorted(v for v in wanted
+                      if not np.all(np.isfinite(data[v].to_numpy(dtype=float))))
+    if unusable:
+        log(f"column(s) {unusable} hold NaN or inf: not used as model variables")
+    used = sorted(required | (wanted - set(unusable)))
+    bad_rows = ~np.all(np.isfinite(data[sorted(required)].to_numpy(dtype=float)), axis=1)
     if bad_rows.any():
         mans = np.unique(data["maneuver"].to_numpy()[bad_rows])
-        cols = [c for c in used if not np.all(np.isfinite(data[c].to_numpy(dtype=float)))]
+        cols = [c for c in sorted(required)
+                if not np.all(np.isfinite(data[c].to_numpy(dtype=float)))]
         raise FlightDataError(f"NaN or inf in column(s) {cols} in {int(bad_rows.sum())} rows "
                               f"of maneuver(s) {mans[:10].tolist()}: drop those maneuvers or "
                               "fill the gaps before identification")
     return data, rec_note, used
 
 
+@dataclass(frozen=True)
+class _Coverage:
+    """The envelope cells of the identification samples and which validation samples lie
+    where the identification data are (see :mod:`simplexspline.aero.selection.coverage`)."""
+
+    ident_cells: np.ndarray
+    valid_covered: np.ndarray
+
+
 def _split(data, settings: IdentificationSettings, log):
-    """Step 2: identification and validation samples, split by whole maneuvers."""
+    """Step 2: identification and validation samples, split by whole maneuvers so that
+    validation maneuvers stay inside the envelope the identification data cover."""
     groups = data["maneuver_type"].to_numpy() if "maneuver_type" in data.columns else None
-    conditions = data["condition"].to_numpy() if "condition" in data.columns else None
+    env = {v: data[v].to_numpy(dtype=float) for v in ENVELOPE_VARIABLES if v in data.columns}
+    envelope = EnvelopeCells.from_data(env)
+    cells = envelope.cell(env)
     is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
-                               seed=settings.seed, groups=groups, conditions=conditions)
+                               seed=settings.seed, groups=groups, cells=cells)
     ident, valid = data.loc[~is_val].copy(), data.loc[is_val].copy()
     # The metadata live in ``meta``; pandas deep-copies ``attrs`` on every column access
     # (0.26 s each with a campaign's reconstruction record), so the splits carry none.
@@ -505,31 +558,62 @@ def _split(data, settings: IdentificationSettings, log):
     if len(valid) == 0 or len(ident) == 0:
         raise InputError("the identification or validation set is empty; give more maneuvers"
                          " or change validation_fraction")
+    coverage = _Coverage(cells[~is_val], envelope.covered(cells[is_val],
+                                                          envelope.counts(cells[~is_val])))
+    valid["inside_envelope"] = coverage.valid_covered
     log(f"{data['maneuver'].nunique()} maneuvers: {ident['maneuver'].nunique()} for "
         f"identification ({len(ident):,} samples), {valid['maneuver'].nunique()} for "
-        f"validation ({len(valid):,} samples)")
-    return ident, valid
+        f"validation ({len(valid):,} samples, {100 * coverage.valid_covered.mean():.1f} % "
+        f"inside the identification data's envelope)")
+    return ident, valid, coverage
 
 
 def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
-                      settings: IdentificationSettings, source, progress: bool, log):
+                      coverage: _Coverage, settings: IdentificationSettings, source,
+                      progress: bool, log):
     """Step 3: select, fit and validate each coefficient's model (one BLAS thread: many
-    small factorisations)."""
+    small factorisations), the coefficients in parallel processes when ``workers``
+    allow (each search is independent; results are identical to a serial run)."""
     results, notes = {}, []
-    has_truth = all(f"true_{c}" in valid.columns for c in settings.coefficients)
-    bar = _bar(len(settings.coefficients), progress)
-    with kernels.one_blas_thread():
-        for c in settings.coefficients:
-            res = _identify_one(c, structures[c], ident, valid, columns, settings,
-                                has_truth, source, notes)
-            results[c] = res
-            v = res.validation
-            log(f"{res.structure.label():<44} validation rel. RMS {100 * v['rrms']:.2f} %"
-                + (f", RMS vs truth {v['rms_true']:.3e} (noise {v['noise_rms']:.3e})"
-                   if has_truth else "") + f"  [{res.seconds:.1f} s]")
-            bar.update(1)
+    coefs = tuple(settings.coefficients)
+    has_truth = all(f"true_{c}" in valid.columns for c in coefs)
+    workers = min(len(coefs), settings.workers or os.cpu_count() or 1)
+    bar = _bar(len(coefs), progress)
+
+    def done(c, outcome):
+        res, pred_v, new_notes, to_warn = outcome
+        results[c] = res
+        valid[f"model_{c}"] = pred_v
+        notes.extend(new_notes)
+        for msg in to_warn:
+            warnings.warn(msg, ThinDataWarning, stacklevel=4)
+        v = res.validation
+        log(f"{res.structure.label():<44} validation rel. RMS {100 * v['rrms']:.2f} %"
+            + (f", RMS vs truth {v['rms_true']:.3e} (noise {v['noise_rms']:.3e})"
+               if has_truth else "") + f"  [{res.seconds:.1f} s]")
+        bar.update(1)
+
+    if workers > 1:
+        # only what the fits read travels to the workers
+        keep = set(columns) | set(coefs) | {f"true_{c}" for c in coefs} \
+            | {"maneuver", "maneuver_type"}
+        ident_w = ident[[k for k in ident.columns if k in keep]]
+        valid_w = valid[[k for k in valid.columns if k in keep]]
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                 initializer=ignore_interrupts) as pool:
+            futures = {pool.submit(_identify_in_worker, c, structures[c], ident_w, valid_w,
+                                   columns, coverage, settings, has_truth, source): c
+                       for c in coefs}
+            for fut in as_completed(futures):
+                done(futures[fut], fut.result())
+    else:
+        with kernels.one_blas_thread():
+            for c in coefs:
+                done(c, _identify_one(c, structures[c], ident, valid, columns, coverage,
+                                      settings, has_truth, source))
     bar.close()
-    return results, notes
+    return {c: results[c] for c in coefs}, notes
 
 
 def _record_provenance(results: Mapping, ident, meta: dict,
@@ -548,22 +632,47 @@ def _record_provenance(results: Mapping, ident, meta: dict,
                                                      "rrms_true")}})
 
 
+def _identify_in_worker(*args) -> tuple:
+    """:func:`_identify_one` in a worker process, with one BLAS thread (the workers
+    share the cores)."""
+    with kernels.one_blas_thread():
+        return _identify_one(*args)
+
+
 def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
-                  settings: IdentificationSettings, has_truth: bool, source, notes: list,
-                  ) -> CoefficientResult:
-    """Select (optionally), fit and validate the model of coefficient ``c``."""
+                  coverage: _Coverage, settings: IdentificationSettings, has_truth: bool,
+                  source) -> tuple:
+    """Select (optionally), fit and validate the model of coefficient ``c`` (in this
+    process or a worker).
+
+    Returns
+    -------
+    result : CoefficientResult
+    prediction : ndarray, shape (len(valid),)
+        The model on the validation samples.
+    notes : list of str
+        What the user should know (also in the summary).
+    warn : list of str
+        The notes that are :class:`ThinDataWarning` s.
+    """
     t0 = time.perf_counter()
+    notes: list = []
+    warn: list = []
     y = ident[c].to_numpy(dtype=float)
     mans = ident["maneuver"].to_numpy()
-    start = _drop_zero_multipliers(start, columns, notes)
-    cond = ident["condition"].to_numpy() if "condition" in ident.columns else None
+    start, dropped = restrict_to_data(start, columns)
+    if dropped:
+        notes.append(f"{c}: left out of the starting structure (the data cannot support "
+                     f"it): {', '.join(dropped)}")
+    start = _drop_zero_multipliers(start, columns, notes, warn)
+    cells = coverage.ident_cells
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
                                                      settings.selection, seed=settings.seed,
-                                                     conditions=cond)
+                                                     cells=cells)
     if settings.select:
         best, history = select_structure(start, columns, y, mans, settings.selection,
                                          seed=settings.seed, prior_degree=prior_degree,
-                                         conditions=cond)
+                                         cells=cells)
     else:
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
     model = fit_structure(best, columns, y, settings.selection, prior_degree=prior_degree,
@@ -573,12 +682,31 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         model.provenance["prior"]["cv_rms_by_degree"] = {str(d): v for d, v in
                                                           prior_scores.items()}
     pred_v = model.predict(valid)
-    valid[f"model_{c}"] = pred_v
     truth_v = valid[f"true_{c}"].to_numpy() if has_truth else None
     truth_i = ident[f"true_{c}"].to_numpy() if has_truth else None
-    v_scores = scores(valid[c].to_numpy(dtype=float), pred_v, truth=truth_v,
-                      maneuvers=valid["maneuver"].to_numpy())
-    i_scores = scores(y, model.predict(ident), truth=truth_i, maneuvers=mans, max_lag=0)
+    v_scores = scores_by_coverage(valid[c].to_numpy(dtype=float), pred_v,
+                                  coverage.valid_covered, truth=truth_v,
+                                  maneuvers=valid["maneuver"].to_numpy())
+    pred_i = model.predict(ident)
+    i_scores = scores(y, pred_i, truth=truth_i, maneuvers=mans, max_lag=0)
+    types = valid["maneuver_type"].to_numpy() if "maneuver_type" in valid.columns else None
+    inside = coverage.valid_covered if coverage.valid_covered.any() else slice(None)
+    excited = excitation(c, valid[c].to_numpy(dtype=float)[inside], (valid[c].to_numpy(
+        dtype=float) - pred_v)[inside], valid["maneuver"].to_numpy()[inside],
+        v_scores["r2"], None if types is None else types[inside])
+    if excited["message"]:
+        notes.append(excited["message"])
+    inputs = [v for v in best.inputs if v in columns]
+    separation = collinearity(columns, inputs, y - pred_i,
+                              v_scores.get("autocorrelation"))
+    tangled = [d for d in separation if not d["separable"]]
+    if tangled:
+        notes.append(f"{c}: the identification data cannot separate the effects of "
+                     + "; ".join(f"{d['variable']} (VIF {d['vif']:.0f}, correlation "
+                                 f"{d['correlation']:+.2f} with {d['partner']})"
+                                 for d in tangled)
+                     + ": derivatives along them are uncertain (summary.json, "
+                       "'diagnostics'); fly maneuvers that move them independently")
     counts = np.asarray(model.provenance["counts"])
     thin = np.nonzero(counts < settings.thin_factor * best.ncoef_per_simplex)[0]
     if len(thin):
@@ -589,14 +717,18 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                f"{settings.thin_factor:g} x K d_hat = {limit} samples (fewest: "
                f"{int(counts.min())}); {there}")
         notes.append(msg)
-        warnings.warn(msg, ThinDataWarning, stacklevel=3)
-    return CoefficientResult(model, v_scores, i_scores, history, counts, thin,
-                             time.perf_counter() - t0)
+        warn.append(msg)
+    result = CoefficientResult(model, v_scores, i_scores, history, counts, thin,
+                               time.perf_counter() - t0,
+                               {"excitation": excited, "collinearity": separation})
+    return result, pred_v, notes, warn
 
 
-def _drop_zero_multipliers(s: Structure, columns: Mapping, notes: list) -> Structure:
+def _drop_zero_multipliers(s: Structure, columns: Mapping, notes: list,
+                           warn: list) -> Structure:
     """A varying-coefficient structure without the multipliers that are zero throughout
-    the identification data (e.g. a flap that never moved): they cannot be identified."""
+    the identification data (e.g. a flap that never moved): they cannot be identified
+    (said in ``notes`` and ``warn``)."""
     if not s.varying:
         return s
     x = np.column_stack([np.asarray(columns[v], dtype=float) for v in s.inputs])
@@ -611,7 +743,7 @@ def _drop_zero_multipliers(s: Structure, columns: Mapping, notes: list) -> Struc
     msg = (f"{s.coefficient}: multiplier(s) {zero} are zero throughout the identification "
            "data and were left out of the structure")
     notes.append(msg)
-    warnings.warn(msg, ThinDataWarning, stacklevel=3)
+    warn.append(msg)
     return s.with_(multipliers=kept)
 
 

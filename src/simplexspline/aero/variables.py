@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["CANDIDATE_VARIABLES", "COEFFICIENTS", "DEG", "RATE_NAMES", "UNITS"]
+__all__ = ["CANDIDATE_VARIABLES", "COEFFICIENTS", "DEG", "ENVELOPE_VARIABLES",
+           "LATERAL_COEFFICIENTS", "LATERAL_VARIABLES", "LONGITUDINAL_COEFFICIENTS",
+           "RATE_NAMES", "UNITS"]
 
 #: Radians per degree (multiply a value in degrees by ``DEG`` to get radians).
 DEG = math.pi / 180.0
@@ -20,9 +22,27 @@ COEFFICIENTS: tuple[str, ...] = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 #: Non-dimensional body rates p b / 2V, q cbar / 2V, r b / 2V.
 RATE_NAMES: tuple[str, ...] = ("phat", "qhat", "rhat")
 
-#: Explanatory variables the automatic structure selection may add (when in the data).
+#: Explanatory variables the automatic structure selection may add (when in the data):
+#: the flight state, the controls, the non-dimensional rates and flow-angle rates, the
+#: configuration (flaps, gear, speedbrake, trim tab) and the mass (the centre of gravity
+#: moves with fuel burn).
 CANDIDATE_VARIABLES: tuple[str, ...] = ("alpha", "beta", "mach", "phat", "qhat", "rhat",
-                                        "de", "da", "dr")
+                                        "de", "da", "dr", "alphadot_hat", "betadot_hat",
+                                        "flap", "gear", "speedbrake", "dte", "mass")
+
+#: The longitudinal coefficients and the lateral-directional ones. An aircraft is (close
+#: to) mirror-symmetric about its x-z plane, so its longitudinal coefficients are even
+#: functions of the lateral-directional variables and its lateral ones odd functions:
+#: general physics, not knowledge of one aircraft.
+LONGITUDINAL_COEFFICIENTS: tuple[str, ...] = ("CX", "CZ", "Cm")
+LATERAL_COEFFICIENTS: tuple[str, ...] = ("CY", "Cl", "Cn")
+
+#: The lateral-directional variables (sign changes under the mirror symmetry).
+LATERAL_VARIABLES: tuple[str, ...] = ("beta", "phat", "rhat", "da", "dr", "betadot_hat")
+
+#: Variables that describe where in the flight envelope a sample lies: the coverage of the
+#: identification data is judged in them (:mod:`simplexspline.aero.selection.coverage`).
+ENVELOPE_VARIABLES: tuple[str, ...] = ("alpha", "beta", "mach")
 
 #: Units of the variables and coefficients (SI, radians).
 UNITS = {
@@ -30,6 +50,8 @@ UNITS = {
     "p": "rad/s", "q": "rad/s", "r": "rad/s", "phat": "- (p b / 2V)",
     "qhat": "- (q cbar / 2V)", "rhat": "- (r b / 2V)", "de": "rad", "da": "rad", "dr": "rad",
     "dte": "rad", "flap": "rad", "speedbrake": "rad", "gear": "-",
-    "phi": "rad", "theta": "rad", "pdot": "rad/s^2", "qdot": "rad/s^2", "rdot": "rad/s^2",
+    "phi": "rad", "theta": "rad", "alphadot_hat": "- (alpha' cbar / 2V)",
+    "betadot_hat": "- (beta' b / 2V)", "mass": "kg", "pdot": "rad/s^2", "qdot": "rad/s^2",
+    "rdot": "rad/s^2",
     **{c: "-" for c in COEFFICIENTS},
 }

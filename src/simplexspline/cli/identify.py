@@ -55,11 +55,11 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--model", action="append", default=[], metavar="STRUCTURE",
                    help="starting structure, e.g. 'CZ(alpha:3, de, mach) S^1_3' or "
                    "'CZ=alpha,de,mach' (repeatable)")
-    p.add_argument("--preset", choices=("paper", "varying", "f16"), default=None,
-                   help="starting structures: the paper's (paper, the default with DATA), "
-                   "varying-coefficient S^1_3 on uniform grids (varying), or "
-                   "varying-coefficient S^0_2 on the JSBSim F-16 table breakpoints (f16, the "
-                   "default of the main job on its simulated F-16)")
+    p.add_argument("--preset", choices=("auto", "paper", "varying", "f16"), default=None,
+                   help="starting structures: knowledge-free varying-coefficient ones (auto, "
+                   "the default), the paper's (paper), hand-picked varying-coefficient S^1_3 "
+                   "(varying), or S^0_2 on the JSBSim F-16 table breakpoints (f16: prior "
+                   "knowledge of one database)")
     p.add_argument("--no-select", action="store_true",
                    help="fit the given/preset structures as they are (no selection)")
     p.add_argument("--rounds", type=arguments.non_negative, default=None,
@@ -86,10 +86,6 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
 
 def _settings(args):
     settings = IdentificationSettings()
-    if args.data is None:  # the main job: the simulated aircraft's preset, short search
-        aircraft = args.aircraft or DEFAULT_CAMPAIGN["aircraft"]
-        settings = replace(settings, preset="f16" if aircraft == "f16" else "varying",
-                           selection=replace(settings.selection, max_rounds=3))
     if args.config is not None:
         settings = load_config(args.config, settings)
     changes = {}

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from simplexspline.aero.data.differentiation import midpoint_derivative
+from simplexspline.aero.data.differentiation import derivative_by_maneuver
 from simplexspline.aero.variables import COEFFICIENTS, RATE_NAMES
 from simplexspline.errors import FlightDataError, InputError
 
@@ -54,22 +54,9 @@ def angular_accelerations(df, *, half_window: int = 8, degree: int = 4) -> np.nd
     (n, 3) ndarray
         In the row order of ``df``; NaN for maneuvers with a NaN rate.
     """
-    man = df["maneuver"].to_numpy()
-    t = df["t"].to_numpy(dtype=float)
-    rates = df[["p", "q", "r"]].to_numpy(dtype=float)
-    out = np.full((len(df), 3), np.nan)
-    order = np.argsort(man, kind="stable")
-    bounds = np.flatnonzero(np.diff(man[order])) + 1
-    for idx in np.split(order, bounds):
-        if idx.size < 2:
-            continue
-        idx = idx[np.argsort(t[idx], kind="stable")]
-        dt = float(np.median(np.diff(t[idx])))
-        for j in range(3):
-            x = rates[idx, j]
-            if np.isfinite(x).all():
-                out[idx, j] = midpoint_derivative(x, dt, half_window, degree)
-    return out
+    return derivative_by_maneuver(df["maneuver"].to_numpy(), df["t"].to_numpy(dtype=float),
+                                  df[["p", "q", "r"]].to_numpy(dtype=float),
+                                  half_window=half_window, degree=degree)
 
 
 def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,

@@ -25,7 +25,7 @@ import numpy as np
 
 from simplexspline.errors import InputError
 
-__all__ = ["midpoint_derivative", "derivative_weights"]
+__all__ = ["derivative_by_maneuver", "midpoint_derivative", "derivative_weights"]
 
 
 def derivative_weights(positions: np.ndarray, at: float, degree: int) -> np.ndarray:
@@ -101,3 +101,55 @@ def midpoint_derivative(x, dt: float, half_window: int = 8, degree: int = 4) -> 
         wk = derivative_weights(pos, k + 0.5 - start, degree) / dt
         out[k] = wk @ x[start:start + w]
     return out
+
+
+def derivative_by_maneuver(maneuver, t, values, *, half_window: int = 8,
+                           degree: int = 4) -> np.ndarray:
+    """Smoothed time derivatives of signals, maneuver by maneuver (never across maneuvers).
+
+    Parameters
+    ----------
+    maneuver : (n,) array_like
+        Maneuver id per sample.
+    t : (n,) array_like
+        Time [s]; uniform sampling within a maneuver (its median step is used).
+    values : (n,) or (n, k) array_like
+        Signals to differentiate.
+    half_window, degree : int
+        See :func:`midpoint_derivative`.
+
+    Returns
+    -------
+    ndarray, shape of ``values``
+        Derivatives per second, in the input's row order; NaN for a signal of a maneuver
+        that holds a NaN or only one sample.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.r_[np.arange(20), np.arange(20)] * 0.01
+    >>> d = derivative_by_maneuver(np.repeat([1, 2], 20), t, 3.0 * t, half_window=2)
+    >>> bool(np.allclose(d, 3.0))
+    True
+    """
+    man = np.asarray(maneuver)
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(values, dtype=float)
+    flat = x.ndim == 1
+    x2 = x[:, None] if flat else x
+    if len(man) != len(t) or len(t) != len(x2):
+        raise InputError(f"maneuver, t and values must have equal lengths, got {len(man)}, "
+                         f"{len(t)} and {len(x2)}")
+    out = np.full(x2.shape, np.nan)
+    order = np.argsort(man, kind="stable")
+    bounds = np.flatnonzero(man[order][1:] != man[order][:-1]) + 1
+    for idx in np.split(order, bounds):
+        if idx.size < 2:
+            continue
+        idx = idx[np.argsort(t[idx], kind="stable")]
+        dt = float(np.median(np.diff(t[idx])))
+        for j in range(x2.shape[1]):
+            col = x2[idx, j]
+            if np.isfinite(col).all():
+                out[idx, j] = midpoint_derivative(col, dt, half_window, degree)
+    return out[:, 0] if flat else out

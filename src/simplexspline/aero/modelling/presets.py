@@ -1,14 +1,17 @@
-"""Preset model structures: the paper's, varying-coefficient ones for any aircraft, and
-varying-coefficient ones on the JSBSim F-16 table breakpoints (``preset(name)``)."""
+"""Preset model structures (``preset(name)``): the knowledge-free starting structures of the
+search (``'auto'``, the default), the paper's, hand-picked varying-coefficient ones
+(``'varying'``), and varying-coefficient ones on the JSBSim F-16 table breakpoints
+(``'f16'``, prior knowledge of one aircraft's database: never a default)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from simplexspline.aero.modelling.auto import AUTO_PRESET
 from simplexspline.aero.modelling.structure import Structure
 from simplexspline.errors import InputError
 
-__all__ = ["F16_PRESET", "PAPER_PRESET", "PRESETS", "VARYING_PRESET", "preset"]
+__all__ = ["AUTO_PRESET", "F16_PRESET", "PAPER_PRESET", "PRESETS", "VARYING_PRESET", "preset"]
 
 
 #: The paper's model structures (Section IV.E), all S^1_3, plus CY which the paper could
@@ -83,14 +86,16 @@ F16_PRESET = _vc({
 }, cellwise=True)
 
 #: Named presets.
-PRESETS = {"paper": PAPER_PRESET, "varying": VARYING_PRESET, "f16": F16_PRESET}
+PRESETS = {"auto": AUTO_PRESET, "paper": PAPER_PRESET, "varying": VARYING_PRESET,
+           "f16": F16_PRESET}
 
 
-def preset(name: str = "paper") -> dict:
-    """The named preset structures as a dict coefficient -> Structure: ``'paper'`` (the
-    paper's Section IV.E, plain S^1_3 splines), ``'varying'`` (varying-coefficient S^1_3
-    on uniform grids, any aircraft) or ``'f16'`` (varying-coefficient S^0_2 on the JSBSim
-    F-16 table breakpoints)."""
+def preset(name: str = "auto") -> dict:
+    """The named preset structures as a dict coefficient -> Structure: ``'auto'`` (the
+    default: knowledge-free varying-coefficient starting structures, see
+    :mod:`simplexspline.aero.modelling.auto`), ``'paper'`` (the paper's Section IV.E, plain
+    S^1_3 splines), ``'varying'`` (hand-picked varying-coefficient S^1_3 on uniform grids)
+    or ``'f16'`` (varying-coefficient S^0_2 on the JSBSim F-16 table breakpoints)."""
     if name not in PRESETS:
         raise InputError(f"unknown structure preset {name!r}; available: {sorted(PRESETS)}")
     return dict(PRESETS[name])

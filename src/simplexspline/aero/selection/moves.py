@@ -7,9 +7,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from simplexspline.aero.modelling.auto import SCHEDULING_CANDIDATES, candidate_terms
+from simplexspline.aero.modelling.notation import parse_multiplier
 from simplexspline.aero.modelling.structure import Structure
 
-__all__ = ["knot_moves", "neighbours"]
+__all__ = ["knot_moves", "neighbours", "schedule_moves"]
 
 
 def neighbours(s: Structure, settings, available: Sequence[str]):
@@ -23,6 +25,13 @@ def neighbours(s: Structure, settings, available: Sequence[str]):
             d = s.degree - 1
             out.append((f"degree {s.degree}->{d}",
                         s.with_(degree=d, continuity=min(s.continuity, d - 1))))
+        # kinks (C^0) or smoothness across the grid planes
+        if s.continuity > 0:
+            out.append((f"continuity {s.continuity}->{s.continuity - 1}",
+                        s.with_(continuity=s.continuity - 1)))
+        if s.continuity + 1 < s.degree:
+            out.append((f"continuity {s.continuity}->{s.continuity + 1}",
+                        s.with_(continuity=s.continuity + 1)))
     if "resolution" in settings.moves:
         if s.degree > 0:   # one polynomial per grid cell, or the Kuhn diagonals as breaks
             out.append(("cellwise off" if s.cellwise else "cellwise on",
@@ -42,15 +51,17 @@ def neighbours(s: Structure, settings, available: Sequence[str]):
                 out.append((f"coarsen {v} ({res[i] + 1}->{res[i]} cells)",
                             s.with_(resolution=tuple(res))))
     if "variables" in settings.moves and s.varying:
-        # varying-coefficient structures keep their scheduling variables; the moves add
-        # or remove multipliers
-        for v in settings.candidates:
-            if v in available and v not in s.multipliers and v not in s.variables:
-                out.append((f"add multiplier {v}", s.with_(multipliers=(*s.multipliers, v))))
+        # varying-coefficient structures: add or remove multipliers (terms of the
+        # coefficient's symmetry class), schedule on one more variable or one fewer
+        for term in candidate_terms(s.coefficient, available, settings.candidates):
+            if term not in s.multipliers and term not in s.variables:
+                out.append((f"add multiplier {term}",
+                            s.with_(multipliers=(*s.multipliers, term))))
         if len(s.multipliers) > 1:
             for v in s.multipliers:
                 out.append((f"remove multiplier {v}", s.with_(
                     multipliers=tuple(w for w in s.multipliers if w != v))))
+        out.extend(schedule_moves(s, settings, available))
     elif "variables" in settings.moves:
         if s.ndim < settings.max_variables:
             for v in settings.candidates:
@@ -93,3 +104,45 @@ def knot_moves(s: Structure, v: str) -> list:
         out.append((f"refine {v} breakpoints ({len(ks)}->{len(knots[v])})",
                     s.with_(knots=tuple(knots.items()))))
     return out
+
+
+def schedule_moves(s: Structure, settings, available: Sequence[str]) -> list:
+    """Moves of a varying-coefficient structure's scheduling variables.
+
+    * ``schedule on v``: ``v`` becomes a dimension of the triangulation (2 grid cells); a
+      linear multiplier ``v`` is dropped, since the constant term now varies with ``v``.
+      This is how the search finds that a control or the sideslip acts nonlinearly (a
+      drag that grows with ``|de|``, a rolling moment that saturates with sideslip).
+    * ``unschedule v``: ``v`` leaves the triangulation (a multiplier ``v`` is added back
+      when ``v`` is a candidate term of the coefficient), when no term names ``v`` in its
+      own dimensions or breakpoints and another scheduling variable remains.
+
+    At most ``settings.max_schedule`` scheduling variables.
+    """
+    out = []
+    terms = candidate_terms(s.coefficient, available, settings.candidates)
+    if s.ndim < settings.max_schedule:
+        for v in SCHEDULING_CANDIDATES:
+            if v in available and v in settings.candidates and v not in s.variables:
+                mult = tuple(m for m in s.multipliers if m != v)
+                out.append((f"schedule on {v}", s.with_(
+                    variables=(*s.variables, v), resolution=(*s.resolution, 2),
+                    multipliers=mult or ("1",))))
+    if s.ndim > 1:
+        for i, v in enumerate(s.variables):
+            if v in s.knots_of or any(_names_variable(m, v) for m in s.multipliers):
+                continue
+            mult = s.multipliers
+            if v in terms and v not in mult:
+                mult = (*mult, v)
+            keep = [j for j in range(s.ndim) if j != i]
+            out.append((f"unschedule {v}", s.with_(
+                variables=tuple(s.variables[j] for j in keep),
+                resolution=tuple(s.resolution[j] for j in keep), multipliers=mult)))
+    return out
+
+
+def _names_variable(multiplier: str, v: str) -> bool:
+    """Whether a term names ``v`` in its own dimensions or breakpoints."""
+    _expr, dims, knots = parse_multiplier(multiplier)
+    return v in knots or (dims is not None and v in dims)

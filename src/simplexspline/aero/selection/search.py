@@ -38,9 +38,10 @@ from simplexspline.aero.modelling.prior import (
     coarse_structure,
     virtual_samples,
 )
-from simplexspline.aero.modelling.structure import Structure
+from simplexspline.aero.modelling.structure import Structure, multiplier_values
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.varying import VaryingCoefficientSpace
+from simplexspline.aero.selection.coverage import covered_in_folds
 from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
 from simplexspline.spline import kernels
 
@@ -64,6 +65,9 @@ class SelectionSettings:
         Relative decrease of the CV RMS a move must bring to be taken.
     max_degree, max_resolution, max_variables : int
         Bounds of the search.
+    max_schedule : int
+        Most scheduling variables (triangulation dimensions) of a varying-coefficient
+        structure.
     max_coefficients : int
         Largest number of B-coefficients (J * d_hat) tried.
     samples_per_coefficient : float
@@ -71,9 +75,12 @@ class SelectionSettings:
     min_points : int
         Simplices holding fewer samples are dropped from the triangulation.
     moves : tuple of str
-        Kinds of moves tried: 'degree', 'resolution' (grid cells; for variables on
+        Kinds of moves tried: 'degree' (degree, and continuity across the grid planes,
+        up or down), 'resolution' (grid cells; for variables on
         breakpoints, every other breakpoint dropped or midpoints inserted; ``cellwise``
-        on or off), 'variables'.
+        on or off), 'variables' (add, remove or replace a variable; for
+        varying-coefficient structures add or remove a multiplier, schedule on one more
+        variable or one fewer).
     ridge : float
         Relative ridge weight on the B-coefficients (times the mean diagonal of X'X): a
         tiny value that only decides directions the data and continuity leave
@@ -94,6 +101,14 @@ class SelectionSettings:
         never.
     prior_weight : float
         Weight of each virtual sample of the coarse model, relative to a real sample.
+    screen : int or None
+        Of the 'add multiplier' and of the 'schedule on' moves of a round, only this many
+        are cross-validated: those whose new term explains most of the current model's
+        residual (:func:`screen_moves`). 0 or None: every move is cross-validated.
+    combine : int
+        After the best move of a round is taken, up to this many of the round's other
+        improving moves are tried on top of it, best first, each kept when it improves
+        further: several independent improvements per round (0: one move per round).
     """
 
     candidates: tuple = CANDIDATE_VARIABLES
@@ -103,6 +118,7 @@ class SelectionSettings:
     max_degree: int = 5
     max_resolution: int = 6
     max_variables: int = 5
+    max_schedule: int = 3
     max_coefficients: int = 12000
     samples_per_coefficient: float = 20.0
     min_points: int = 10
@@ -112,6 +128,8 @@ class SelectionSettings:
     smoothing: object = None
     prior: object = "auto"
     prior_weight: float = PRIOR_WEIGHT
+    screen: int | None = 3
+    combine: int = 3
 
     def to_dict(self) -> dict:
         return {k: (list(v) if isinstance(v, tuple) else v)
@@ -313,33 +331,51 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
 
 
 def _cv_setup(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
-              settings: SelectionSettings, seed: int, conditions: np.ndarray | None):
+              settings: SelectionSettings, seed: int, conditions: np.ndarray | None,
+              cells: np.ndarray | None = None):
     """Subsampled columns, coefficient, folds and scored-sample mask of a
     cross-validation, or None with fewer than 2 maneuvers (fewer maneuvers than folds:
-    leave one maneuver out instead)."""
+    leave one maneuver out instead).
+
+    With ``cells`` (envelope cell per sample) each maneuver's most visited cell stands
+    for its flight condition when the folds are drawn, and only held-out samples whose
+    cell the training folds cover are scored; otherwise ``conditions`` play both parts.
+    """
     step = max(1, int(np.ceil(len(y) / settings.max_samples)))
     cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
     ys, mans = np.asarray(y, dtype=float)[::step], np.asarray(maneuvers)[::step]
     k = min(settings.folds, len(np.unique(mans)))
     if k < 2:
         return None
+    if cells is not None:
+        cel = np.asarray(cells)[::step]
+        folds = fold_by_maneuver(mans, k, seed=seed, conditions=_modal_cell(mans, cel))
+        return cols, ys, folds, covered_in_folds(cel, folds, int(cel.max()) + 1)
     cond = None if conditions is None else np.asarray(conditions)[::step]
     folds = fold_by_maneuver(mans, k, seed=seed, conditions=cond)
     scored = None if cond is None else covered_in_fold(folds, cond)
     return cols, ys, folds, scored
 
 
+def _modal_cell(maneuvers: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Per sample, the cell its maneuver visits most."""
+    ids, where = np.unique(maneuvers, return_inverse=True)
+    table = np.zeros((len(ids), int(cells.max()) + 1))
+    np.add.at(table, (where, cells), 1.0)
+    return np.argmax(table, axis=1)[where]
+
+
 def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
                         maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
-                        seed: int = 0,
-                        conditions: np.ndarray | None = None) -> tuple[int, dict]:
+                        seed: int = 0, conditions: np.ndarray | None = None,
+                        cells: np.ndarray | None = None) -> tuple[int, dict]:
     """The degree of the prior's coarse model (:data:`~simplexspline.aero.modelling.prior.
     PRIOR_DEGREES`) with the lowest k-fold cross-validation RMS (folds = maneuvers) of the
     *fine* structure shrunk towards it: the coarse model matters where the fine one's data
     are thin, which is what held-out maneuvers probe.
 
-    ``conditions`` (flight-condition id per sample, optional): see
-    :func:`select_structure`.
+    ``conditions`` (flight-condition id per sample) and ``cells`` (envelope cell per
+    sample), optional: see :func:`select_structure`.
 
     Returns
     -------
@@ -351,7 +387,7 @@ def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
     settings = settings or SelectionSettings()
     if not _use_prior(structure, settings.prior):
         return 3, {}
-    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions)
+    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions, cells)
     if setup is None:
         return 3, {}
     cols, ys, folds, scored = setup
@@ -374,8 +410,8 @@ def _size(s: Structure, ranges: Mapping | None = None) -> int:
 def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                      maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
                      seed: int = 0, progress: Callable[[str], None] | None = None,
-                     prior_degree: int = 3,
-                     conditions: np.ndarray | None = None) -> tuple[Structure, list]:
+                     prior_degree: int = 3, conditions: np.ndarray | None = None,
+                     cells: np.ndarray | None = None) -> tuple[Structure, list]:
     """Greedy automatic model structure selection.
 
     Parameters
@@ -400,6 +436,12 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         the CV RMS counts only held-out samples whose condition keeps most of its data in
         the training folds (:func:`~simplexspline.aero.selection.validation.covered_in_fold`), so
         that the selection optimises what the validation measures.
+    cells : ndarray of int, shape (N,), optional
+        Envelope cell per sample (:class:`~simplexspline.aero.selection.coverage.
+        EnvelopeCells`), the data-driven form of ``conditions`` (which it replaces): a
+        held-out sample counts only when the training folds cover its cell
+        (:func:`~simplexspline.aero.selection.coverage.covered_in_folds`), so the search
+        neither rewards nor punishes extrapolation.
 
     Returns
     -------
@@ -411,7 +453,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     settings = settings or SelectionSettings()
     y = np.asarray(y, dtype=float)
     n = len(y)
-    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions)
+    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions, cells)
     if setup is None:
         raise InputError("structure selection needs at least 2 identification maneuvers "
                          "for cross-validation; give more maneuvers or use select=False "
@@ -442,8 +484,79 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         return trial.score
 
     score.history = history
+    score.screen = None if not settings.screen else (
+        lambda best, moves: screen_moves(best, moves, cols, ys, settings))
     with kernels.one_blas_thread():
         return _search(start, settings, available, budget, score, ranges)
+
+
+#: Kinds of moves that :func:`screen_moves` ranks before any is cross-validated.
+_SCREENED = ("add multiplier ", "schedule on ", "remove multiplier ")
+
+
+def screen_moves(best: Structure, moves: list, columns: Mapping, y: np.ndarray,
+                 settings: SelectionSettings) -> list:
+    """The moves worth a cross-validation: all but the 'add multiplier', 'schedule on' and
+    'remove multiplier' moves, of which only the ``settings.screen`` most promising each.
+
+    An addition is promising when what it adds explains much of the current model's
+    residual: the R^2 of a least-squares fit of the residual (in-sample, of ``best``
+    fitted to the search's samples) by the new term times 1, z and z^2 (z: the first
+    scheduling variable, scaled), or for a new scheduling variable v by v^2, |v|, v^3 and
+    v z. A removal is promising when the term contributes little (RMS of its part of the
+    current model). A cheap linear regression per move instead of a k-fold spline fit.
+    """
+    ranked = {kind: [] for kind in _SCREENED}
+    kept = []
+    for move, cand in moves:
+        kind = next((k for k in _SCREENED if move.startswith(k)), None)
+        (kept.append((move, cand)) if kind is None else ranked[kind].append((move, cand)))
+    if not any(len(r) > settings.screen for r in ranked.values()):
+        return moves
+    try:
+        model = fit_structure(best, columns, y, replace(settings, prior=None))
+    except SimplexSplineError:
+        return moves
+    resid = y - model.predict(columns)
+    share = {}
+    if best.varying:
+        z, m = model.split(model.inputs(columns), clip=True)
+        parts = model.spline.term_values(z, outside="extrapolate") * m
+        share = {name: float(np.sqrt(np.mean(parts[:, k] ** 2)))
+                 for k, name in enumerate(best.multipliers)}
+    z0 = np.asarray(columns[best.variables[0]], dtype=float)
+    z0 = (z0 - z0.mean()) / (z0.std() or 1.0)
+    for kind, items in ranked.items():
+        if len(items) <= settings.screen:
+            kept.extend(items)
+            continue
+        gains = []
+        for move, cand in items:
+            name = move[len(kind):]
+            if kind == "remove multiplier ":
+                gains.append(-share.get(name, 0.0))
+                continue
+            if kind == "add multiplier ":
+                term = Structure(best.coefficient, best.variables, multipliers=(name,))
+                t = multiplier_values(term, input_matrix(columns, term.inputs))[:, 0]
+                feats = [t, t * z0, t * z0 * z0]
+            else:
+                v = np.asarray(columns[name], dtype=float)
+                v = (v - v.mean()) / (v.std() or 1.0)
+                feats = [v * v, np.abs(v), v ** 3, v * z0]
+            gains.append(_explained(np.column_stack(feats), resid))
+        order = np.argsort(gains)[::-1][:settings.screen]
+        kept.extend(items[i] for i in order)
+    return kept
+
+
+def _explained(features: np.ndarray, resid: np.ndarray) -> float:
+    """R^2 of the least-squares fit of ``resid`` by ``features`` (centred)."""
+    f = features - features.mean(axis=0)
+    r = resid - resid.mean()
+    coef, *_ = np.linalg.lstsq(f, r, rcond=None)
+    ss = float(r @ r)
+    return float(1.0 - np.sum((r - f @ coef) ** 2) / ss) if ss > 0 else 0.0
 
 
 def _search(start, settings, available, budget, score, ranges=None):
@@ -461,15 +574,35 @@ def _search(start, settings, available, budget, score, ranges=None):
         limit = max(budget, _size(best, ranges))
         moves = [(m, s) for m, s in neighbours(best, settings, available)
                  if _size(s, ranges) <= limit]
+        if score.screen is not None:
+            moves = score.screen(best, moves)
         if not moves:
             break
-        results = [(score(s, rnd, m), m, s) for m, s in moves]
-        sc, _move, cand = min(results, key=lambda t: t[0])
+        results = sorted(((score(s, rnd, m), m, s) for m, s in moves),
+                         key=lambda t: t[0])
+        sc, _move, cand = results[0]
         if not sc < best_score * (1.0 - settings.min_improvement):
             break
-        best, best_score = cand, sc
-        for t in reversed(history):
-            if t.structure == cand:
-                t.accepted = True
-                break
+        # the other moves that improved on the round's start, best first, are tried on
+        # top of the accepted one (a move is the same change, found by its description):
+        # several independent improvements per round for a few more fits
+        others = [m for c, m, _s in results[1:]
+                  if c < best_score * (1.0 - settings.min_improvement)]
+        best, best_score = _accept(history, cand, sc)
+        for move in others[:settings.combine]:
+            again = dict(neighbours(best, settings, available)).get(move)
+            if again is None or _size(again, ranges) > max(budget, _size(best, ranges)):
+                continue
+            c = score(again, rnd, f"{move} (combined)")
+            if c < best_score * (1.0 - settings.min_improvement):
+                best, best_score = _accept(history, again, c)
     return best, history
+
+
+def _accept(history: list, structure: Structure, value: float) -> tuple:
+    """Mark the last trial of ``structure`` accepted; the new (best, score)."""
+    for t in reversed(history):
+        if t.structure == structure:
+            t.accepted = True
+            break
+    return structure, value

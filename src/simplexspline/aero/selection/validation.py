@@ -8,15 +8,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from simplexspline.aero.selection.coverage import threshold
 from simplexspline.errors import InputError
 
-__all__ = ["CONDITION_KEEP", "PAPER_TABLE2", "autocorrelation", "covered_in_fold", "fold_by_maneuver", "scores",
+__all__ = ["CONDITION_KEEP", "COVERED_KEEP", "PAPER_TABLE2", "autocorrelation", "covered_in_fold", "fold_by_maneuver", "scores",
+           "scores_by_coverage",
            "split_by_maneuver"]
 
 #: Fraction of each flight condition's samples that stays for identification when
 #: validation maneuvers are held out (and in the training folds of a scored
 #: cross-validation fold): validation then measures the model where it was identified.
 CONDITION_KEEP = 0.5
+
+#: Fraction of a validation maneuver's samples that must stay covered by the
+#: identification data (see :func:`split_by_maneuver`, ``cells``).
+COVERED_KEEP = 0.9
 
 #: Validation relative RMS of the paper's Table 2 (Cessna Citation II, fractions).
 PAPER_TABLE2 = {"CX": 0.0693, "CZ": 0.0260, "Cl": 0.0170, "Cm": 0.0172, "Cn": 0.0472}
@@ -25,7 +31,8 @@ PAPER_TABLE2 = {"CX": 0.0693, "CZ": 0.0260, "Cl": 0.0170, "Cm": 0.0172, "Cn": 0.
 def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: int = 0,
                       groups: np.ndarray | None = None,
                       conditions: np.ndarray | None = None,
-                      keep: float = CONDITION_KEEP) -> np.ndarray:
+                      keep: float = CONDITION_KEEP, cells: np.ndarray | None = None,
+                      covered_keep: float = COVERED_KEEP) -> np.ndarray:
     """Choose whole maneuvers for validation.
 
     Parameters
@@ -46,6 +53,14 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         group short, it gets fewer validation maneuvers.
     keep : float
         Fraction of each flight condition's samples that stays for identification.
+    cells : ndarray of int, shape (N,), optional
+        Envelope cell per sample (:meth:`~simplexspline.aero.selection.coverage.
+        EnvelopeCells.cell`). A maneuver is held out only while at least ``covered_keep``
+        of its samples lie in cells that keep enough identification samples
+        (:func:`~simplexspline.aero.selection.coverage.threshold` of the whole data's
+        cell counts): the data-driven form of ``conditions``, for records without a
+        condition column.
+    covered_keep : float
 
     Returns
     -------
@@ -68,6 +83,12 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     else:
         cond = np.unique(np.asarray(conditions)[first], return_inverse=True)[1]
         room = (1.0 - keep) * np.bincount(cond, weights=counts)
+    if cells is not None:
+        cells = np.asarray(cells)
+        left = np.bincount(cells).astype(float)          # identification samples per cell
+        min_count = threshold(left)
+        where = np.unique(maneuvers, return_inverse=True)[1]
+        own = [np.bincount(cells[where == i], minlength=len(left)) for i in range(len(ids))]
     chosen = []
     for g in np.unique(labels):
         members = np.flatnonzero(labels == g)
@@ -76,10 +97,17 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         for i in rng.permutation(members):
             if taken == k:
                 break
-            if counts[i] <= room[cond[i]]:
-                room[cond[i]] -= counts[i]
-                chosen.append(ids[i])
-                taken += 1
+            if counts[i] > room[cond[i]]:
+                continue
+            if cells is not None:
+                after = left - own[i]
+                hit = own[i] > 0
+                if own[i][hit & (after >= min_count)].sum() < covered_keep * counts[i]:
+                    continue
+                left = after
+            room[cond[i]] -= counts[i]
+            chosen.append(ids[i])
+            taken += 1
     chosen = set(chosen)
     if not chosen:
         chosen = {rng.choice(ids)}
@@ -227,4 +255,53 @@ def scores(measured: np.ndarray, model: np.ndarray, *, truth: np.ndarray | None 
         out.update(rms_true=rms_t, rrms_true=rms_t / rng if rng > 0 else float("nan"),
                    noise_rms=noise,
                    rms_true_over_noise=rms_t / noise if noise > 0 else float("inf"))
+    return out
+
+
+def scores_by_coverage(measured: np.ndarray, model: np.ndarray, covered: np.ndarray, *,
+                       truth: np.ndarray | None = None,
+                       maneuvers: np.ndarray | None = None) -> dict:
+    """:func:`scores` on the samples inside the identification data's envelope, and the
+    same on the rest under ``'outside'``: an extrapolation is judged apart from the fit.
+
+    Parameters
+    ----------
+    measured, model : ndarray, shape (N,)
+    covered : ndarray of bool, shape (N,)
+        Samples inside the coverage (:mod:`simplexspline.aero.selection.coverage`).
+    truth, maneuvers : ndarray, shape (N,), optional
+        As in :func:`scores`.
+
+    Returns
+    -------
+    dict
+        The scores of the covered samples (of all samples when none is covered), with
+        ``coverage`` (fraction of covered samples) and, when some are not covered,
+        ``outside``: their scores (no autocorrelation) and ``maneuvers`` (maneuver ->
+        fraction of its samples outside).
+    """
+    covered = np.asarray(covered, dtype=bool)
+    y, yhat = np.asarray(measured, dtype=float), np.asarray(model, dtype=float)
+    if covered.shape != y.shape:
+        raise InputError(f"covered must have the shape of measured {y.shape}, got "
+                         f"{covered.shape}")
+    man = np.zeros(len(y), dtype=int) if maneuvers is None else np.asarray(maneuvers)
+    inside = covered if covered.any() else np.ones(len(y), dtype=bool)
+
+    def part(mask, max_lag=50):
+        return scores(y[mask], yhat[mask], truth=None if truth is None
+                      else np.asarray(truth, dtype=float)[mask], maneuvers=man[mask],
+                      max_lag=max_lag)
+
+    out = part(inside)
+    out["coverage"] = float(covered.mean())
+    rest = ~inside
+    if rest.any():
+        o = part(rest, max_lag=0)
+        o.pop("autocorrelation")
+        ids, n = np.unique(man[rest], return_counts=True)
+        total = dict(zip(*np.unique(man, return_counts=True)))
+        o["maneuvers"] = {(int(m) if np.issubdtype(type(m), np.integer) else str(m)):
+                          round(int(k) / int(total[m]), 3) for m, k in zip(ids, n)}
+        out["outside"] = o
     return out

@@ -1,0 +1,152 @@
+"""Knowledge-free model structures: where the structure search starts on any aircraft, and
+which terms it may try.
+
+Nothing here knows an aircraft. The starting structures are the generic varying-coefficient
+form of aerodynamic models, ``C = sum_k m_k s_k(alpha, mach)``: coefficients that vary over
+the flight envelope (angle of attack and Mach number), multiplying the rates and controls
+that the data hold. The one piece of physics used is the mirror symmetry of aircraft about
+their x-z plane: the longitudinal coefficients (CX, CZ, Cm) are even in the lateral
+variables (beta, p, r, aileron, rudder), the lateral ones (CY, Cl, Cn) odd. So a
+longitudinal coefficient may get ``beta*beta`` or ``|beta|`` but not ``beta``, and a
+lateral coefficient gets the lateral variables linearly, their dependence on the
+longitudinal state coming from the scheduling. Which terms stay, which variables schedule
+the coefficients and how finely is decided by cross-validation
+(:mod:`simplexspline.aero.selection.search`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from simplexspline.aero.modelling.notation import multiplier_factors, split_multiplier
+from simplexspline.aero.modelling.structure import Structure
+from simplexspline.aero.variables import (
+    CANDIDATE_VARIABLES,
+    COEFFICIENTS,
+    LATERAL_COEFFICIENTS,
+    LATERAL_VARIABLES,
+)
+from simplexspline.errors import InputError
+
+__all__ = ["AUTO_PRESET", "EVEN_LATERAL", "SCHEDULING_CANDIDATES", "candidate_terms",
+           "restrict_to_data"]
+
+#: Lateral variables whose even terms (``v*v`` and ``|v|``) a longitudinal coefficient may
+#: get: the sideslip and the lateral controls (drag grows with the size of each).
+EVEN_LATERAL: tuple[str, ...] = ("beta", "da", "dr")
+
+#: Variables that may schedule the coefficients (be a dimension of the triangulation): the
+#: continuous flight state and controls. The rates enter linearly (small-perturbation
+#: derivatives vary with the state, not with the rate itself).
+SCHEDULING_CANDIDATES: tuple[str, ...] = ("alpha", "mach", "beta", "de", "da", "dr", "flap")
+
+_LONGITUDINAL_START = ("1", "qhat", "de")
+_LATERAL_START = ("1", "beta", "phat", "rhat", "da", "dr")
+
+
+def _start(coefficient: str) -> Structure:
+    mult = _LATERAL_START if coefficient in LATERAL_COEFFICIENTS else _LONGITUDINAL_START
+    return Structure(coefficient, ("alpha", "mach"), 3, 1, (3, 1), mult)
+
+
+#: Starting structures of the knowledge-free search (preset ``'auto'``, the default):
+#: varying-coefficient S^1_3 splines over alpha (3 grid cells) and Mach, multiplying the
+#: constant, ``qhat`` and the elevator (CX, CZ, Cm) or sideslip, roll and yaw rates and the
+#: lateral controls (CY, Cl, Cn). Columns the data lack are left out
+#: (:func:`restrict_to_data`).
+AUTO_PRESET: dict[str, Structure] = {c: _start(c) for c in COEFFICIENTS}
+
+
+def candidate_terms(coefficient: str, available: Sequence[str],
+                    allowed: Sequence[str] = CANDIDATE_VARIABLES) -> tuple[str, ...]:
+    """The multipliers the search may add to a varying-coefficient model of ``coefficient``.
+
+    Parameters
+    ----------
+    coefficient : str
+        ``'CX'``, ..., ``'Cn'``.
+    available : sequence of str
+        Columns present (and varying) in the identification data.
+    allowed : sequence of str
+        Variables the user lets the search use (:class:`SelectionSettings.candidates`).
+
+    Returns
+    -------
+    tuple of str
+        Linear terms of the variables of the coefficient's own parity (lateral variables
+        for CY, Cl, Cn; the others for CX, CZ, Cm); for a longitudinal coefficient also
+        ``v*v`` and ``|v|`` of the sideslip and lateral controls.
+
+    Examples
+    --------
+    >>> candidate_terms("Cm", ["alpha", "qhat", "de", "beta"])
+    ('alpha', 'qhat', 'de', 'beta*beta', '|beta|')
+    >>> candidate_terms("Cn", ["alpha", "qhat", "beta", "rhat", "dr"])
+    ('beta', 'rhat', 'dr')
+    """
+    have = [v for v in allowed if v in set(available)]
+    lateral = coefficient in LATERAL_COEFFICIENTS
+    out = [v for v in have if (v in LATERAL_VARIABLES) == lateral]
+    if not lateral:
+        for v in EVEN_LATERAL:
+            if v in have:
+                out += [f"{v}*{v}", f"|{v}|"]
+    return tuple(out)
+
+
+def restrict_to_data(structure: Structure, columns: Mapping) -> tuple[Structure, list]:
+    """``structure`` without what the data cannot support: scheduling variables and
+    multiplier columns that are missing or constant in ``columns``.
+
+    Parameters
+    ----------
+    structure : Structure
+    columns : mapping of str to ndarray
+        Identification data by column.
+
+    Returns
+    -------
+    structure : Structure
+        The restricted structure (unchanged when nothing is missing).
+    dropped : list of str
+        What was left out and why, one text per item.
+
+    Raises
+    ------
+    simplexspline.errors.InputError
+        No scheduling variable varies (nothing can be identified).
+    """
+    def varies(v):
+        if v not in columns:
+            return False
+        x = np.asarray(columns[v], dtype=float)
+        return bool(np.all(np.isfinite(x)) and np.ptp(x) > 0)
+
+    dropped = []
+    keep = [i for i, v in enumerate(structure.variables) if varies(v)]
+    for i, v in enumerate(structure.variables):
+        if i not in keep:
+            dropped.append(f"variable {v} ({'constant' if v in columns else 'not in the data'})")
+    if not keep:
+        raise InputError(f"none of the variables {list(structure.variables)} of "
+                         f"{structure.coefficient} varies in the identification data")
+    variables = tuple(structure.variables[i] for i in keep)
+    mult = []
+    for m in structure.multipliers:
+        dims = split_multiplier(m)[1]
+        factors = [f for f in multiplier_factors(m) if f not in variables]
+        if any(not varies(f) for f in factors) or (dims is not None and
+                                                   any(d not in variables for d in dims)):
+            dropped.append(f"multiplier {m}")
+            continue
+        mult.append(m)
+    if not dropped:
+        return structure, []
+    if structure.multipliers and not mult:
+        mult = ["1"]
+    knots = tuple((v, k) for v, k in structure.knots if v in variables)
+    return structure.with_(variables=variables,
+                           resolution=tuple(structure.resolution[i] for i in keep),
+                           multipliers=tuple(mult), knots=knots), dropped

@@ -1,0 +1,135 @@
+"""Knowledge-free structures: candidate terms by symmetry, restriction to the data,
+scheduling moves, and the search recovering forms it was not given."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings as hsettings, strategies as st
+
+from simplexspline.aero.modelling.auto import (
+    AUTO_PRESET,
+    EVEN_LATERAL,
+    candidate_terms,
+    restrict_to_data,
+)
+from simplexspline.aero.modelling.notation import multiplier_factors
+from simplexspline.aero.modelling.presets import preset
+from simplexspline.aero.modelling.structure import Structure
+from simplexspline.aero.selection.moves import neighbours, schedule_moves
+from simplexspline.aero.selection.search import SelectionSettings, fit_structure, \
+    select_structure
+from simplexspline.aero.variables import (
+    CANDIDATE_VARIABLES,
+    COEFFICIENTS,
+    LATERAL_COEFFICIENTS,
+    LATERAL_VARIABLES,
+)
+from simplexspline.errors import InputError
+
+
+@given(st.sampled_from(COEFFICIENTS), st.sets(st.sampled_from(CANDIDATE_VARIABLES)))
+@hsettings(max_examples=60, deadline=None)
+def test_candidate_terms_respect_the_mirror_symmetry(coef, available):
+    terms = candidate_terms(coef, sorted(available))
+    lateral = coef in LATERAL_COEFFICIENTS
+    for t in terms:
+        factors = multiplier_factors(t)
+        assert all(f in available for f in factors)
+        odd = sum(f in LATERAL_VARIABLES for f in factors) % 2 == 1 and "|" not in t
+        # lateral coefficients are odd in the lateral variables, longitudinal ones even
+        assert odd == lateral, (coef, t)
+    if not lateral:
+        for v in EVEN_LATERAL:
+            if v in available:
+                assert f"{v}*{v}" in terms and f"|{v}|" in terms
+
+
+def test_candidate_terms_honour_the_users_candidates():
+    assert candidate_terms("Cm", ["alpha", "qhat", "de", "mass"], allowed=("qhat",)) == \
+        ("qhat",)
+
+
+def test_auto_preset_is_the_default_and_knows_no_breakpoints():
+    assert preset() == AUTO_PRESET
+    for c, s in AUTO_PRESET.items():
+        assert s.coefficient == c and s.varying and not s.knots and not s.cellwise
+        assert s.variables == ("alpha", "mach")
+
+
+def test_restrict_to_data_drops_missing_and_constant_columns():
+    n = 50
+    cols = {"alpha": np.linspace(0, 0.2, n), "mach": np.full(n, 0.5),
+            "beta": np.linspace(-0.1, 0.1, n), "phat": np.zeros(n) + np.arange(n) * 1e-4,
+            "rhat": np.linspace(0, 1e-3, n), "dr": np.linspace(-0.1, 0.1, n)}
+    s, dropped = restrict_to_data(AUTO_PRESET["Cn"], cols)
+    assert s.variables == ("alpha",) and s.resolution == (3,)
+    assert s.multipliers == ("1", "beta", "phat", "rhat", "dr")
+    assert any("mach" in d and "constant" in d for d in dropped)
+    assert any("da" in d for d in dropped)
+    with pytest.raises(InputError, match="none of the variables"):
+        restrict_to_data(Structure("CZ", ("mach",), 3, 1, (), ("1", "de")), cols)
+
+
+def _data(n_man=16, samples=600, seed=1, noise=2e-3):
+    """Maneuvers with a drag-like kink in the elevator (|de|) and a lift curve in alpha."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(samples) * 0.01
+    cols = {k: [] for k in ("alpha", "mach", "de", "qhat", "beta", "y", "truth", "man")}
+    for m in range(n_man):
+        def wave(amp, centre=0.0):
+            f, ph = rng.uniform(0.1, 1.0, 3), rng.uniform(0, 2 * np.pi, 3)
+            return centre + amp * np.sin(2 * np.pi * f[:, None] * t + ph[:, None]).sum(0) / 3
+
+        alpha = wave(0.1, rng.uniform(0.03, 0.15))
+        de, qhat, beta = wave(0.12), wave(0.004), wave(0.15)
+        mach = np.clip(wave(0.05, rng.uniform(0.4, 0.7)), 0.3, 0.8)
+        truth = 0.02 + 0.3 * alpha**2 + 0.25 * np.abs(de) + 0.4 * beta**2 - 2.0 * qhat
+        for k, v in (("alpha", alpha), ("mach", mach), ("de", de), ("qhat", qhat),
+                     ("beta", beta), ("truth", truth),
+                     ("y", truth + noise * rng.standard_normal(samples)),
+                     ("man", np.full(samples, m))):
+            cols[k].append(v)
+    return {k: np.concatenate(v) for k, v in cols.items()}
+
+
+def test_schedule_moves_promote_and_demote():
+    s = AUTO_PRESET["CX"]
+    moves = dict(schedule_moves(s, SelectionSettings(), ["alpha", "mach", "de", "qhat"]))
+    on_de = moves["schedule on de"]
+    assert on_de.variables == ("alpha", "mach", "de") and on_de.resolution == (3, 1, 2)
+    assert "de" not in on_de.multipliers
+    off = moves["unschedule mach"]
+    assert off.variables == ("alpha",) and "mach" in off.multipliers
+    limited = SelectionSettings(max_schedule=2)
+    assert not any(m.startswith("schedule on") for m, _ in
+                   schedule_moves(s, limited, ["alpha", "mach", "de"]))
+    # a term restricted to the scheduling variable keeps it scheduled
+    t = Structure("Cm", ("alpha", "mach"), 3, 1, (2, 1), ("1", "qhat[alpha]"))
+    assert "unschedule alpha" not in dict(schedule_moves(t, SelectionSettings(),
+                                                          ["alpha", "mach"]))
+
+
+def test_search_finds_an_elevator_kink_it_was_not_told_about():
+    d = _data()
+    cols = {k: d[k] for k in ("alpha", "mach", "de", "qhat", "beta")}
+    start, _ = restrict_to_data(AUTO_PRESET["CX"], cols)
+    settings = SelectionSettings(max_rounds=6, max_samples=20_000)
+    best, history = select_structure(start, cols, d["y"], d["man"], settings)
+    kinked = "de" in best.variables or "|de|" in best.multipliers
+    assert kinked, best.label()
+    assert any(t.accepted and "beta" in t.move for t in history), \
+        [t.move for t in history if t.accepted]
+    model = fit_structure(best, cols, d["y"], settings)
+    err = model.predict(cols) - d["truth"]
+    plain = fit_structure(start, cols, d["y"], settings).predict(cols) - d["truth"]
+    assert np.sqrt(np.mean(err**2)) < 0.5 * np.sqrt(np.mean(plain**2))
+    assert np.sqrt(np.mean(err**2)) < 2e-3       # at the noise level
+
+
+def test_lateral_coefficients_never_get_even_terms():
+    s = AUTO_PRESET["Cl"]
+    for move, cand in neighbours(s, SelectionSettings(), list(CANDIDATE_VARIABLES)):
+        if move.startswith("add multiplier"):
+            term = move.split()[-1]
+            assert "|" not in term and "*" not in term and term in LATERAL_VARIABLES
