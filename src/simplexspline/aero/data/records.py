@@ -40,15 +40,19 @@ class RawChannel:
         Values in the source unit; NaN samples removed (with their time stamps).
     dropped_nan : int
         NaN samples removed.
+    timed : bool
+        False for values stored without time stamps: ``t`` then counts from 0 at the stated
+        rate and the import aligns it with the record's first time stamp.
     """
 
     source: str
     t: np.ndarray
     values: np.ndarray
     dropped_nan: int = 0
+    timed: bool = True
 
 
-def _finite(source: str, t, v) -> RawChannel:
+def _finite(source: str, t, v, timed: bool = True) -> RawChannel:
     t = np.asarray(t, dtype=float).ravel()
     v = np.asarray(v, dtype=float).ravel()
     if t.shape != v.shape:
@@ -58,7 +62,7 @@ def _finite(source: str, t, v) -> RawChannel:
         raise FlightDataError(f"channel {source!r}: infinite value at sample {k} "
                               f"(t = {t[k]:.6g}); fix or blank it in the record")
     keep = np.isfinite(v) & np.isfinite(t)
-    return RawChannel(source, t[keep], v[keep], int((~keep).sum()))
+    return RawChannel(source, t[keep], v[keep], int((~keep).sum()), timed)
 
 
 def _numeric_lines(path: Path) -> np.ndarray:
@@ -105,7 +109,8 @@ def _from_files(directory: Path, pattern: str, wanted: dict, time_scale: float) 
                 raise FlightDataError(f"channel {source!r} ({where}): {f.name} holds values "
                                       "without time stamps; give rate_hz in [record] or in the "
                                       "channel's entry")
-            out[source] = _finite(source, np.arange(a.shape[0]) / (rate or 1.0), a[:, 0])
+            out[source] = _finite(source, np.arange(a.shape[0]) / (rate or 1.0), a[:, 0],
+                                  timed=False)
     return out
 
 
@@ -123,6 +128,8 @@ def _from_table(columns, path: Path, wanted: dict, time: str | None, time_scale:
                 raise FlightDataError(f"channel {source!r} ({where}): no time channel; set "
                                       "[record] time or rate_hz")
             t = np.arange(len(v)) / rate
+            out[source] = _finite(source, t, v, timed=False)
+            continue
         else:
             if tname not in columns:
                 raise FlightDataError(f"time channel {tname!r} (for {source!r}, {where}) is "
