@@ -140,8 +140,11 @@ def _from_table(columns, path: Path, wanted: dict, time: str | None, time_scale:
 
 
 def _mat_getter(path: Path):
+    import h5py  # optional dependency (the 'aero' extra): MATLAB v7.3 files
     import scipy.io
 
+    if h5py.is_hdf5(path):  # MATLAB v7.3 (HDF5 with a 512-byte MATLAB header)
+        return _h5_getter(path)
     try:
         data = scipy.io.loadmat(path, simplify_cells=True)
     except NotImplementedError:  # MATLAB v7.3 files are HDF5
@@ -176,7 +179,7 @@ def _mat_getter(path: Path):
 
 
 def _h5_getter(path: Path):
-    import h5py  # optional dependency (the 'aero' extra): MATLAB v7.3 files
+    import h5py  # optional dependency (the 'aero' extra), as in _mat_getter
 
     try:
         fh = h5py.File(path, "r")

@@ -164,7 +164,8 @@ def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: flo
 
     For each signal of :data:`EXCITATION_SIGNALS` present in ``data``: the deviation from a
     ``baseline_s`` moving median, squared and averaged over ``window_s``, divided by its
-    20th percentile over the usable samples (the record's quiet level). A sample is active
+    20th percentile over the usable samples (the record's quiet level; at least 1e-4 of the
+    peak, for noise-free records). A sample is active
     where any signal exceeds ``threshold``; active stretches closer than ``merge_s`` are
     merged and padded by ``pad_s``. The type is ``excitation-<axis>`` of the most active
     signal.
@@ -195,7 +196,9 @@ def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: flo
             continue
         xf = _fill(x)
         energy = _moving_mean((xf - median_filter(xf, size=kb, mode="nearest")) ** 2, k)
-        level = float(np.percentile(energy[usable], 20))
+        # the quiet level; a floor of 1e-4 of the peak for noise-free (simulated) records
+        level = max(float(np.percentile(energy[usable], 20)),
+                    1e-4 * float(energy[usable].max()))
         if not level > 0:
             continue
         quiet[name] = level
