@@ -329,7 +329,7 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
     result = ImportResult(
         data=df, metadata={}, sanity=sanity, found=found, empty=empty,
         missing=[c for c in _SENSORS if c not in df.columns], derived=derived,
-        time_issues=issues, segment_notes=notes, ground_rule=rule, rate_hz=1.0 / dt,
+        time_issues=issues, segment_notes=notes, ground_rule=rule, rate_hz=round(1.0 / dt, 6),
         record_duration_s=float(grid[-1] - grid[0]), airborne_s=float(airborne.sum() * dt))
     meta = dict(m.metadata)
     meta.update({"schema": SCHEMA_VERSION, "aircraft": m.aircraft.name, "S": m.aircraft.S,

@@ -14,7 +14,7 @@ it (:class:`TimeIssue`), never silently:
   it and the import splits the record there.
 
 :func:`resample` puts a cleaned channel on the common grid by linear interpolation (angles
-that wrap are unwrapped first). The grid's rate is the fastest channel's unless given: a
+that wrap are interpolated the short way round). The grid's rate is the fastest channel's unless given: a
 faster channel on a slower grid is interpolated, not averaged.
 """
 
@@ -206,8 +206,9 @@ def resample(channel: CleanChannel, grid: np.ndarray, *, wrap: bool = False) -> 
     channel : CleanChannel
     grid : ndarray, shape (m,)
     wrap : bool
-        The values are angles [rad] that wrap at +-pi (unwrapped before, wrapped into
-        [-pi, pi) after).
+        The values are angles [rad] that wrap: interpolated the short way round, each
+        result on the branch of the recorded sample before it (so the recorded values, and
+        any unit error in them, are kept).
 
     Returns
     -------
@@ -223,8 +224,9 @@ def resample(channel: CleanChannel, grid: np.ndarray, *, wrap: bool = False) -> 
         out[inside] = v[0]
     else:
         out[inside] = np.interp(grid[inside], channel.t, v)
+    if wrap:  # back onto the recorded branch of the sample before (multiples of 2 pi)
+        left = np.clip(np.searchsorted(channel.t, grid, side="right") - 1, 0, v.size - 1)
+        out += (channel.values - v)[left]
     for a, b in channel.gaps:
         out[(grid > a + tol) & (grid < b - tol)] = np.nan
-    if wrap:
-        out = (out + np.pi) % (2 * np.pi) - np.pi
     return out
