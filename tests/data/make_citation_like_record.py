@@ -68,7 +68,7 @@ def main() -> None:
     wow = np.concatenate([np.full(len(b[0]["tas"]), b[2]) for b in blocks])
     n = wow.size
     t = 1000.0 + np.arange(n) / RATE  # the recorder's clock does not start at zero
-    kind, start = [], 0
+    start = 0
     maneuvers = []
     for b, typ, _ in blocks:
         k = len(b["tas"])

@@ -1,4 +1,4 @@
-"""`simplexspline import`: a flight-test record (channel files, CSV, .mat, Parquet) to the schema."""
+"""`simplexspline import`: a flight-test record (channel files, CSV, .mat, Parquet) -> schema."""
 
 from __future__ import annotations
 

@@ -211,8 +211,9 @@ def _inertias(mass: np.ndarray, mapping: ImportMapping, cols: dict, derived: dic
         how = "inertia table interpolated in mass" + (
             "" if "Ixz" in air.inertia_table else " (Ixz = 0: not in the table)")
     else:
+        need = [k for k in mass_properties.INERTIAS if k not in have]
         raise InputError(f"{mapping.path}: no inertias: give [aircraft] radii_of_gyration or "
-                         f"inertia_table, or map {[k for k in mass_properties.INERTIAS if k not in have]}")
+                         f"inertia_table, or map {need}")
     for k in mass_properties.INERTIAS:
         if k not in have:
             derived[k] = how
@@ -297,9 +298,10 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
             raise FlightDataError(f"no usable maneuver: channel(s) {blocking} have no data in "
                                   "flight (check their time base: do their time stamps overlap "
                                   "the others'?)")
+        why = "; ".join(notes[:3]) or "none airborne"
         raise FlightDataError(f"no usable maneuver in the record ({len(segments)} segment(s) "
-                              f"found by '{seg.method}'; {'; '.join(notes[:3]) or 'none airborne'}):"
-                              " check the ground rule, dropouts and the segmentation settings")
+                              f"found by '{seg.method}'; {why}): check the ground rule, "
+                              "dropouts and the segmentation settings")
     rows = np.concatenate([p for p, _ in pieces])
     frame = {"maneuver": np.concatenate([np.full(p.size, i, np.int64)
                                          for i, (p, _) in enumerate(pieces)]),

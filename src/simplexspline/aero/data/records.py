@@ -67,22 +67,23 @@ def _finite(source: str, t, v, timed: bool = True) -> RawChannel:
 
 def _numeric_lines(path: Path) -> np.ndarray:
     text = path.read_text(encoding="utf-8", errors="replace")
-    rows = []
-    for ln in text.splitlines():
+    text = text.replace(",", " ").replace(";", " ")
+    lines = text.splitlines()
+    skip = 0
+    for ln in lines:  # blank and comment lines, then one header line before the data
         s = ln.strip()
         if not s or s.startswith("#"):
+            skip += 1
             continue
-        rows.append(s.replace(",", " ").replace(";", " "))
-    if not rows:
+        try:
+            float(s.split()[0])
+        except ValueError:
+            skip += 1
+        break
+    if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in lines[skip:]):
         return np.empty((0, 1))
     try:
-        float(rows[0].split()[0])
-    except ValueError:  # a header line
-        rows = rows[1:]
-    if not rows:
-        return np.empty((0, 1))
-    try:
-        a = np.loadtxt(io.StringIO("\n".join(rows)), ndmin=2)
+        a = np.loadtxt(io.StringIO(text), comments="#", skiprows=skip, ndmin=2)
     except ValueError as exc:
         raise FlightDataError(f"{path}: not a table of numbers ({exc}); a channel file holds "
                               "one column (values) or two (time, value)") from None

@@ -134,7 +134,10 @@ def _deriv(x, dt, wrap=False):
 def _rates(d, dt, mask, report):
     phi, theta, p, q, r = (d[k] for k in ("phi", "theta", "p", "q", "r"))
     min_std = np.radians(0.5)
-    sel = lambda x: np.where(mask, x, np.nan)  # noqa: E731 - a local shorthand
+
+    def sel(x):
+        return np.where(mask, x, np.nan)
+
     phid = sel(_deriv(phi, dt, wrap=True))
     pred = p + np.tan(theta) * (q * np.sin(phi) + r * np.cos(phi))
     report.checks.append(_rate_check("rate sign p", "p", phid, sel(pred), "d(phi)/dt",
@@ -173,9 +176,9 @@ def _body_to_ned(phi, theta, psi, f):
 def _specific_force(d, dt, mask, report):
     axes = [k for k in ("ax", "ay", "az") if k in d]
     if len(axes) < 3:
+        absent = sorted({"ax", "ay", "az"} - set(axes))
         report.checks.append(SanityCheck("specific force", "skipped",
-                                         f"accelerometer channel(s) {sorted({'ax', 'ay', 'az'} - set(axes))} "
-                                         "missing"))
+                                         f"accelerometer channel(s) {absent} missing"))
         return
     f = np.vstack([d["ax"], d["ay"], d["az"]])
     psi = d.get("psi")
@@ -327,7 +330,7 @@ def check_record(data, dt: float, airborne=None) -> SanityReport:
     -------
     SanityReport
     """
-    d = {k: np.asarray(data[k], dtype=float) for k in data.keys()
+    d = {k: np.asarray(data[k], dtype=float) for k in data
          if np.issubdtype(np.asarray(data[k]).dtype, np.number)}
     d = {k: v for k, v in d.items() if np.isfinite(v).any()}
     n = len(next(iter(d.values()))) if d else 0

@@ -14,8 +14,8 @@ it (:class:`TimeIssue`), never silently:
   it and the import splits the record there.
 
 :func:`resample` puts a cleaned channel on the common grid by linear interpolation (angles
-that wrap are interpolated the short way round). The grid's rate is the fastest channel's unless given: a
-faster channel on a slower grid is interpolated, not averaged.
+that wrap are interpolated the short way round). The grid's rate is the fastest channel's
+unless given: a faster channel on a slower grid is interpolated, not averaged.
 """
 
 from __future__ import annotations
