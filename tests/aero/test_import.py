@@ -69,7 +69,8 @@ def test_missing_sensors_are_reported_not_invented(imported):
         assert col not in df.columns
     assert "psi" in imported.empty                              # the empty heading file
     assert {"beta", "psi", "vn_gps"} <= set(imported.missing)
-    assert set(imported.derived) >= {"tas", "mach", "rho", "mass", "Ixx", "x_gps, y_gps"}
+    assert set(imported.derived) >= {"tas", "mach", "rho", "mass", "Ixx, Iyy, Izz, Ixz",
+                                  "x_gps, y_gps"}
     text = imported.summary()
     assert "missing sensors: beta, psi" in text and "channels without data: psi" in text
 

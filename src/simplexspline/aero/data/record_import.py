@@ -214,9 +214,7 @@ def _inertias(mass: np.ndarray, mapping: ImportMapping, cols: dict, derived: dic
         need = [k for k in mass_properties.INERTIAS if k not in have]
         raise InputError(f"{mapping.path}: no inertias: give [aircraft] radii_of_gyration or "
                          f"inertia_table, or map {need}")
-    for k in mass_properties.INERTIAS:
-        if k not in have:
-            derived[k] = how
+    derived[", ".join(k for k in mass_properties.INERTIAS if k not in have)] = how
     return {k: v for k, v in out.items() if k not in have}
 
 
