@@ -9,6 +9,7 @@ longitude only, the normal load factor in g, fuel used in lbs, 20 s on the groun
 from __future__ import annotations
 
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -19,6 +20,7 @@ import pytest
 
 from simplexspline.aero.data.flight_data import read_flight_data
 from simplexspline.aero.data.record_import import import_record
+from simplexspline.aero.data.sanity import check_record
 from simplexspline.cli import main
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "citation_like"
@@ -233,3 +235,78 @@ def test_table_formats_give_the_same_import(tmp_path, fmt, imported):
     result = import_record(mapping)
     pd.testing.assert_frame_equal(result.data, imported.data, check_exact=False, rtol=1e-9)
     assert "psi" in result.empty
+
+
+def _record_with(tmp_path, truth, extra: dict, mapping_lines: str, old=None, new=None):
+    """A copy of the record with extra channel files (SI values from the truth) mapped."""
+    rec = tmp_path / "rec"
+    shutil.copytree(DATA, rec)
+    t = truth["t_record"].to_numpy()
+    for name, values in extra.items():
+        np.savetxt(rec / f"{name}.txt", np.column_stack([t, values]), fmt=["%.2f", "%.10g"])
+    text = (rec / "mapping.toml").read_text()
+    if old is not None:
+        assert old in text
+        text = text.replace(old, new)
+    text = text.replace("\n[segments]", mapping_lines + "\n\n[segments]")
+    (rec / "mapping.toml").write_text(text)
+    return rec / "mapping.toml"
+
+
+def test_specific_force_is_checked_against_gps_accelerations(tmp_path, truth):
+    """With GPS velocities and heading mapped, per maneuver (the test record's transitions
+    between maneuvers are blends, not flight, so the whole-record check is not used)."""
+    gps = {"gps_vn": truth["vn_gps"], "gps_ve": truth["ve_gps"], "gps_vd": truth["vd_gps"],
+           "true_heading": np.degrees(truth["psi"])}
+    lines = ('vn_gps = { source = "gps_vn", unit = "m/s" }\n'
+             've_gps = { source = "gps_ve", unit = "m/s" }\n'
+             'vd_gps = { source = "gps_vd", unit = "m/s" }')
+    heading = ('psi = { source = "heading", unit = "deg" }',
+               'psi = { source = "true_heading", unit = "deg" }')
+    named = {}
+    for flip, expect in ((None, []), ("ax_g", ["ax"]), ("ay_g", ["ay"])):
+        path = _record_with(tmp_path / str(flip), truth, gps, lines, *heading)
+        if flip is not None:
+            text = path.read_text()
+            old = f'source = "{flip}", unit = "g0" }}'
+            assert old in text
+            path.write_text(text.replace(old, f'source = "{flip}", unit = "g0", sign = -1 }}'))
+        data = import_record(path).data
+        assert {"vn_gps", "psi"} <= set(data.columns)
+        for m, g in data.groupby("maneuver"):
+            report = check_record(g, 0.1)
+            (check,) = [c for c in report.checks if c.name == "specific force"]
+            assert "the GPS accelerations" in check.message
+            assert "north-east-down" in check.message
+            if flip is None:
+                assert check.status == "ok" and check.value < 0.5, check.message
+                assert not report.failed()
+            elif flip == "ax_g":      # ax carries about g sin(theta) + thrust: always seen
+                assert [c.channel for c in report.failed()] == expect, check.message
+            else:                     # ay is seen only where the aircraft banks or slips
+                assert [c.channel for c in report.failed()] in ([], expect), check.message
+                named[m] = bool(report.failed())
+    assert named[1] and sum(named.values()) >= 1   # the aileron 3211
+
+
+def test_without_weight_on_wheels_the_ground_is_found_by_airspeed_and_altitude(tmp_path,
+                                                                              truth):
+    path = _record_with(tmp_path, truth, {}, "", 'wow = { source = "wow", unit = '
+                        '"dimensionless" }\n', "")
+    result = import_record(path)
+    assert result.ground_rule.startswith("airspeed >= 25 m/s and altitude >= 15 m")
+    on_ground = truth.loc[truth["wow"] > 0.5, "t_record"]
+    assert not result.data["t_record"].isin(on_ground).any()
+    assert len(result.segments()) == 3
+
+
+def test_maneuver_list_in_toml(tmp_path):
+    listed = pd.read_csv(DATA / "maneuvers.csv")
+    toml = "".join(f'[[maneuver]]\nstart = {r.start}\nend = {r.end}\ntype = "{r.type}"\n\n'
+                   for r in listed.itertuples())
+    (tmp_path / "list.toml").write_text(toml)
+    text = MAPPING.read_text().replace('path = "."', f'path = "{DATA}"').replace(
+        'list = "maneuvers.csv"', f'list = "{tmp_path / "list.toml"}"')
+    (tmp_path / "mapping.toml").write_text(text)
+    result = import_record(tmp_path / "mapping.toml")
+    assert [s["type"] for s in result.segments()] == listed["type"].tolist()
