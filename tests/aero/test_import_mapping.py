@@ -194,3 +194,22 @@ def test_units_via_pint():
     assert conversion("degC", "K")(np.array([-56.5]))[0] == pytest.approx(216.65)
     assert quantity("14000 lb", "kg") == pytest.approx(6350.29318)
     assert quantity("1 slug*ft^2", "kg*m^2") == pytest.approx(1.3558179483314004)
+
+
+def test_a_required_channel_without_data_is_named(tmp_path):
+    p = _mapping(tmp_path, 'source = "pitch_rate"', 'source = "heading"')
+    line = _line(p, 'q = { source = "heading"')
+    with pytest.raises(FlightDataError, match=rf"required channel\(s\) \['q'\] are mapped but "
+                                              rf"hold no data \(.*mapping.toml line {line}\)"):
+        import_record(p)
+
+
+def test_missing_ramp_mass_and_inertias_say_what_to_give(tmp_path):
+    p = _mapping(tmp_path, 'ramp_mass = "14000 lb"\n', "")
+    with pytest.raises(InputError, match=r"no mass: map a 'mass' channel or give \[aircraft\] "
+                                         r"ramp_mass"):
+        import_record(p)
+    p = _mapping(tmp_path, 'radii_of_gyration = { x = "2.6 m", y = "3.1 m", z = "3.9 m" }\n', "")
+    with pytest.raises(InputError, match=r"no inertias: give \[aircraft\] radii_of_gyration or "
+                                         r"inertia_table"):
+        import_record(p)

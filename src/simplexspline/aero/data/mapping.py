@@ -424,8 +424,8 @@ def _channel(path: Path, text: str, target: str, entry) -> ChannelMap:
 
 
 def _segments(r: _Reader, base: Path) -> SegmentSpec:
-    fields = {"threshold", "window_s", "pad_s", "merge_s", "min_duration_s"}
-    r.unknown({"method", "list", "min_airspeed", "min_height"} | fields)
+    fields = {"threshold", "window_s", "merge_s", "min_duration_s"}
+    r.unknown({"method", "list", "pad_s", "min_airspeed", "min_height"} | fields)
     method = r.str("method", "airborne", choices=SEGMENT_METHODS)
     lst = r.str("list")
     if method == "list" and lst is None:

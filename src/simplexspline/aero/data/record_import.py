@@ -278,9 +278,7 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
         min_airspeed=seg.min_airspeed, min_height=seg.min_height)
     schema_cols = [k for k in cols if k in FLIGHT_DATA_COLUMNS]
     usable = airborne & np.all([np.isfinite(cols[k]) for k in schema_cols], axis=0)
-    sanity = check_record({k: cols[k] for k in schema_cols} | (
-        {"vn_gps": cols["vn_gps"], "ve_gps": cols["ve_gps"]} if "vn_gps" in cols else {}),
-        dt, airborne)
+    sanity = check_record({k: cols[k] for k in schema_cols}, dt, airborne)
     if seg.method == "list":
         segments = segmentation.read_maneuver_list(seg.list)
     elif seg.method == "excitation":
@@ -324,6 +322,10 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
     df["t_record"] = grid[rows]
     missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
     if missing:
+        empty_req = [c for c in missing if c in empty]
+        if empty_req:
+            raise FlightDataError(f"required channel(s) {empty_req} are mapped but hold no data "
+                                  f"({m.where(empty_req[0])}): the schema needs them")
         raise InputError(f"{m.path}: required column(s) {missing} are neither mapped nor "
                          "derivable: add them to [channels]")
     result = ImportResult(
