@@ -310,3 +310,41 @@ def test_maneuver_list_in_toml(tmp_path):
     (tmp_path / "mapping.toml").write_text(text)
     result = import_record(tmp_path / "mapping.toml")
     assert [s["type"] for s in result.segments()] == listed["type"].tolist()
+
+
+def test_sign_checks_hold_with_sensor_noise(tmp_path):
+    """Noise of flight-test sensors (rates 0.1 deg/s, attitudes 0.05 deg, accelerometers
+    0.01 g, 10 Hz) neither hides a flipped rate nor fails a correct one."""
+    rng = np.random.default_rng(7)
+    rec = tmp_path / "rec"
+    shutil.copytree(DATA, rec)
+    for name, sigma in (("roll_rate", 0.1), ("pitch_rate", 0.1), ("yaw_rate", 0.1),
+                        ("roll_angle", 0.05), ("pitch_angle", 0.05), ("ax_g", 0.01),
+                        ("ay_g", 0.01), ("an_g", 0.01), ("vane_aoa", 0.1)):
+        a = np.loadtxt(rec / f"{name}.txt", skiprows=1)
+        a[:, 1] += rng.normal(0.0, sigma, len(a))
+        np.savetxt(rec / f"{name}.txt", a, fmt=["%.2f", "%.8g"])
+    assert not import_record(rec / "mapping.toml").sanity.failed()
+    text = (rec / "mapping.toml").read_text()
+    (rec / "mapping.toml").write_text(text.replace(
+        'q = { source = "pitch_rate", unit = "deg/s" }',
+        'q = { source = "pitch_rate", unit = "deg/s", sign = -1 }'))
+    assert [c.channel for c in import_record(rec / "mapping.toml").sanity.failed()] == ["q"]
+
+
+def test_time_stamps_in_milliseconds(tmp_path, imported):
+    cols = {}
+    for f in DATA.glob("*.txt"):
+        if f.stem not in ("heading", "delta_e"):
+            a = np.loadtxt(f, skiprows=1)
+            cols["time_ms"], cols[f.stem] = a[:, 0] * 1000.0, a[:, 1]
+    cols["delta_e"] = np.loadtxt(DATA / "delta_e.txt")
+    cols["heading"] = np.full(cols["time_ms"].size, np.nan)
+    pd.DataFrame(cols).to_csv(tmp_path / "record.csv", index=False)
+    text = MAPPING.read_text().replace('format = "channels"', 'format = "csv"').replace(
+        'path = "."', f'path = "{tmp_path / "record.csv"}"').replace(
+        'pattern = "{source}.txt"', 'time = "time_ms"\ntime_unit = "ms"').replace(
+        'list = "maneuvers.csv"', f'list = "{DATA / "maneuvers.csv"}"')
+    (tmp_path / "mapping.toml").write_text(text)
+    result = import_record(tmp_path / "mapping.toml")
+    pd.testing.assert_frame_equal(result.data, imported.data, check_exact=False, rtol=1e-9)
