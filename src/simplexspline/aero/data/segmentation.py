@@ -21,7 +21,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from simplexspline.errors import InputError
 
@@ -184,6 +183,8 @@ def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: flo
     quiet : dict
         Quiet level per signal used (its unit squared).
     """
+    from scipy.ndimage import median_filter  # lazy: scipy.ndimage costs ~0.4 s to import
+
     dt = float(np.median(np.diff(t)))
     k = max(1, int(round(window_s / dt)))
     kb = max(3, int(round(baseline_s / dt)) | 1)
