@@ -348,3 +348,23 @@ def test_time_stamps_in_milliseconds(tmp_path, imported):
     (tmp_path / "mapping.toml").write_text(text)
     result = import_record(tmp_path / "mapping.toml")
     pd.testing.assert_frame_equal(result.data, imported.data, check_exact=False, rtol=1e-9)
+
+
+def test_yaw_rate_sign_from_turns_without_heading_or_gps():
+    """Coordinated turns left and right (bank up to 30 deg): r is checked against
+    g sin(phi) cos(theta) / V, and a flipped r is named."""
+    t = np.arange(0, 120, 0.1)
+    phi = np.radians(30) * np.sin(2 * np.pi * t / 60)
+    theta = np.full(t.size, np.radians(3))
+    tas = np.full(t.size, 120.0)
+    psid = 9.80665 * np.tan(phi) / tas
+    data = {"phi": phi, "theta": theta, "tas": tas, "p": np.gradient(phi, 0.1),
+            "q": psid * np.sin(phi) * np.cos(theta), "r": psid * np.cos(phi) * np.cos(theta),
+            "h": np.full(t.size, 3000.0), "alpha": theta}
+    (ok,) = [c for c in check_record(data, 0.1).checks if c.name == "rate sign r"]
+    assert ok.status == "ok" and "in turns" in ok.message
+    data["r"] = -data["r"]
+    report = check_record(data, 0.1)
+    assert [c.channel for c in report.failed()] == ["r"]
+    assert "channel 'r' looks sign-inverted: correlation -1.00 with g sin(phi)" in \
+        report.failed()[0].message

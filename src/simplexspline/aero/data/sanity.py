@@ -6,8 +6,9 @@ and names the channel that disagrees:
 
 * **rate signs**: d(phi)/dt against ``p + tan(theta) (q sin(phi) + r cos(phi))``, d(theta)/dt
   against ``q cos(phi) - r sin(phi)``, d(psi)/dt (or the GPS track rate when there is no
-  heading) against ``(q sin(phi) + r cos(phi)) / cos(theta)``; a strong negative correlation
-  names the rate ('p', 'q', 'r') as sign-inverted.
+  heading) against ``(q sin(phi) + r cos(phi)) / cos(theta)``, or, with neither, r in turns
+  (bank beyond 10 deg) against the coordinated-turn rate ``g sin(phi) cos(theta) / V``; a
+  strong negative correlation names the rate ('p', 'q', 'r') as sign-inverted.
 * **specific force**: the accelerometers rotated to north-east-down against the GPS
   accelerations ``d(v_gps)/dt - g`` (only the down component when there is no heading); a
   channel whose flipped sign halves the RMS difference (of more than 0.05 m/s^2; 1 m/s^2
@@ -34,6 +35,8 @@ G0 = 9.80665
 _STATUS = ("ok", "warning", "failed", "skipped")
 #: Correlation beyond which a sign is called inverted (negative) or confirmed (positive).
 _CORR = 0.5
+#: Fewest samples banked beyond 10 deg for the turn-coordination check of r.
+_MIN_BANKED = 100
 
 
 @dataclass(frozen=True)
@@ -157,6 +160,21 @@ def _rates(d, dt, mask, report):
         trackd = sel(np.where(slow, np.nan, _deriv(track, dt, wrap=True)))
         report.checks.append(_rate_check("rate sign r", "r", trackd, pred,
                                          "d(GPS track)/dt", min_std))
+    elif "tas" in d:
+        # no heading, no GPS track: in banked flight the turn is about coordinated, so
+        # r = psi_dot cos(phi) cos(theta) with psi_dot = g tan(phi) / V
+        with np.errstate(invalid="ignore", divide="ignore"):
+            banked = mask & (np.abs(phi) > np.radians(10)) & (d["tas"] > 10)
+            turn = np.where(banked, G0 / d["tas"] * np.sin(phi) * np.cos(theta), np.nan)
+        if int(banked.sum()) < _MIN_BANKED:
+            report.checks.append(SanityCheck(
+                "rate sign r", "skipped", f"no heading, no GPS track and only "
+                f"{int(banked.sum())} samples banked more than 10 deg (turns) to compare with",
+                "r"))
+        else:
+            report.checks.append(_rate_check("rate sign r", "r", np.where(banked, r, np.nan),
+                                             turn, "g sin(phi) cos(theta) / V in turns",
+                                             min_std))
     else:
         report.checks.append(SanityCheck("rate sign r", "skipped",
                                          "no heading and no GPS track to compare with", "r"))
