@@ -1,6 +1,7 @@
 """The identification method of de Visser, Mulder and Chu on top of the spline layer.
 
-The flight-data schema (:mod:`simplexspline.aero.data.flight_data`), flight path reconstruction
+The flight-data schema (:mod:`simplexspline.aero.data.flight_data`), the import of real
+flight-test records (:func:`import_record`, docs/import.md), flight path reconstruction
 (:mod:`simplexspline.aero.reconstruction.reconstruct`, IEKF + RTS smoother), the aerodynamic
 coefficients of Eq. 43-48 (:mod:`simplexspline.aero.data.coefficients`), model structures and
 their automatic selection (:mod:`~simplexspline.aero.modelling.structure`,
@@ -21,6 +22,8 @@ from simplexspline.aero.derivatives.stability import (
 )
 from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
 from simplexspline.aero.data.differentiation import midpoint_derivative
+from simplexspline.aero.data.mapping import read_mapping
+from simplexspline.aero.data.record_import import ImportResult, import_record
 from simplexspline.aero.data.flight_data import (
     FLIGHT_DATA_COLUMNS,
     REQUIRED_COLUMNS,
@@ -58,6 +61,7 @@ __all__ = [
     "FlightDataWarning",
     "Identification",
     "IdentificationSettings",
+    "ImportResult",
     "Reconstruction",
     "ReconstructionSettings",
     "Scaling",
@@ -73,12 +77,14 @@ __all__ = [
     "reference_conditions",
     "angular_accelerations",
     "identify",
+    "import_record",
     "innovation_statistics",
     "load_config",
     "midpoint_derivative",
     "parse_structure",
     "preset",
     "read_flight_data",
+    "read_mapping",
     "reconstruct",
     "scores",
     "select_structure",

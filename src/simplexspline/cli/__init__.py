@@ -16,11 +16,12 @@ import sys
 from collections.abc import Sequence
 
 from simplexspline._version import __version__
-from simplexspline.cli import arguments, demo, derivatives, export, identify, reconstruct, simulate
+from simplexspline.cli import (arguments, demo, derivatives, export, identify, import_record,
+                               reconstruct, simulate)
 from simplexspline.errors import SimplexSplineError
 
 #: Sub-command modules, in the order ``--help`` lists them.
-COMMANDS = (identify, simulate, reconstruct, export, derivatives, demo)
+COMMANDS = (identify, simulate, import_record, reconstruct, export, derivatives, demo)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,1 +1,2 @@
-"""Flight data: the schema and its files, signal differentiation, coefficients (Eq. 43-48)."""
+"""Flight data: the schema and its files, import of real records, signal differentiation,
+coefficients (Eq. 43-48)."""

@@ -1,0 +1,253 @@
+"""Readers of flight-test records: one text file per channel, CSV, MATLAB .mat, Parquet.
+
+Every reader returns the requested channels as :class:`RawChannel` (time stamps [s] and raw
+values in the source unit, NaN samples removed, nothing resampled or repaired: that is
+:mod:`~simplexspline.aero.data.time_base`'s job, which reports what it does).
+
+* ``channels``: a directory with one text file per channel, named by a pattern such as
+  ``{source}.txt``; each file holds two columns (time, value) or one (values at a stated
+  rate); whitespace, comma or semicolon separated; lines starting with ``#`` and a header
+  line are skipped. An empty file is a channel without data (a missing sensor).
+* ``csv`` / ``parquet``: one table, one column per channel, a time column.
+* ``mat``: MATLAB files; v4-v7.2 through :func:`scipy.io.loadmat`, v7.3 (HDF5) through h5py.
+  Channels are variables; ``struct.field`` (or ``group/dataset`` in v7.3) reaches inside.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from simplexspline.errors import FlightDataError
+
+__all__ = ["RawChannel", "read_channels"]
+
+
+@dataclass(frozen=True)
+class RawChannel:
+    """One channel as recorded.
+
+    Attributes
+    ----------
+    source : str
+        Its name in the record.
+    t : ndarray, shape (n,)
+        Time stamps [s], as recorded (not sorted, duplicates kept).
+    values : ndarray, shape (n,)
+        Values in the source unit; NaN samples removed (with their time stamps).
+    dropped_nan : int
+        NaN samples removed.
+    timed : bool
+        False for values stored without time stamps: ``t`` then counts from 0 at the stated
+        rate and the import aligns it with the record's first time stamp.
+    """
+
+    source: str
+    t: np.ndarray
+    values: np.ndarray
+    dropped_nan: int = 0
+    timed: bool = True
+
+
+def _finite(source: str, t, v, timed: bool = True) -> RawChannel:
+    t = np.asarray(t, dtype=float).ravel()
+    v = np.asarray(v, dtype=float).ravel()
+    if t.shape != v.shape:
+        raise FlightDataError(f"channel {source!r}: {v.size} values but {t.size} time stamps")
+    if np.isinf(v).any():
+        k = int(np.flatnonzero(np.isinf(v))[0])
+        raise FlightDataError(f"channel {source!r}: infinite value at sample {k} "
+                              f"(t = {t[k]:.6g}); fix or blank it in the record")
+    keep = np.isfinite(v) & np.isfinite(t)
+    return RawChannel(source, t[keep], v[keep], int((~keep).sum()), timed)
+
+
+def _numeric_lines(path: Path) -> np.ndarray:
+    text = path.read_text(encoding="utf-8", errors="replace")
+    text = text.replace(",", " ").replace(";", " ")
+    lines = text.splitlines()
+    skip = 0
+    for ln in lines:  # blank and comment lines, then one header line before the data
+        s = ln.strip()
+        if not s or s.startswith("#"):
+            skip += 1
+            continue
+        try:
+            float(s.split()[0])
+        except ValueError:
+            skip += 1
+        break
+    if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in lines[skip:]):
+        return np.empty((0, 1))
+    try:
+        a = np.loadtxt(io.StringIO(text), comments="#", skiprows=skip, ndmin=2)
+    except ValueError as exc:
+        raise FlightDataError(f"{path}: not a table of numbers ({exc}); a channel file holds "
+                              "one column (values) or two (time, value)") from None
+    if a.shape[1] not in (1, 2):
+        raise FlightDataError(f"{path}: {a.shape[1]} columns; a channel file holds one "
+                              "column (values at the stated rate) or two (time, value)")
+    return a
+
+
+def _from_files(directory: Path, pattern: str, wanted: dict, time_scale: float) -> dict:
+    if not directory.is_dir():
+        raise FlightDataError(f"record directory {str(directory)!r} does not exist")
+    out = {}
+    for source, (rate, where) in wanted.items():
+        f = directory / pattern.format(source=source)
+        if not f.is_file():
+            raise FlightDataError(f"channel {source!r} ({where}): file {str(f)!r} does not "
+                                  "exist; fix 'source' or remove the channel from the mapping")
+        a = _numeric_lines(f)
+        if a.shape[1] == 2:
+            out[source] = _finite(source, a[:, 0] * time_scale, a[:, 1])
+        else:
+            if a.shape[0] and rate is None:
+                raise FlightDataError(f"channel {source!r} ({where}): {f.name} holds values "
+                                      "without time stamps; give rate_hz in [record] or in the "
+                                      "channel's entry")
+            out[source] = _finite(source, np.arange(a.shape[0]) / (rate or 1.0), a[:, 0],
+                                  timed=False)
+    return out
+
+
+def _from_table(columns, path: Path, wanted: dict, time: str | None, time_scale: float,
+                getter) -> dict:
+    out = {}
+    for source, (rate, where, own_time) in wanted.items():
+        if source not in columns:
+            raise FlightDataError(f"channel {source!r} ({where}) is not in {path.name}; it "
+                                  f"has {sorted(columns)[:40]}")
+        tname = own_time or time
+        v = getter(source)
+        if tname is None:
+            if rate is None:
+                raise FlightDataError(f"channel {source!r} ({where}): no time channel; set "
+                                      "[record] time or rate_hz")
+            t = np.arange(len(v)) / rate
+            out[source] = _finite(source, t, v, timed=False)
+            continue
+        else:
+            if tname not in columns:
+                raise FlightDataError(f"time channel {tname!r} (for {source!r}, {where}) is "
+                                      f"not in {path.name}")
+            t = getter(tname) * time_scale
+        out[source] = _finite(source, t, v)
+    return out
+
+
+def _mat_getter(path: Path):
+    import h5py  # optional dependency (the 'aero' extra): MATLAB v7.3 files
+    import scipy.io
+
+    if h5py.is_hdf5(path):  # MATLAB v7.3 (HDF5 with a 512-byte MATLAB header)
+        return _h5_getter(path)
+    try:
+        data = scipy.io.loadmat(path, simplify_cells=True)
+    except NotImplementedError:  # MATLAB v7.3 files are HDF5
+        return _h5_getter(path)
+    except (ValueError, TypeError, OSError) as exc:
+        raise FlightDataError(f"cannot read MATLAB file {str(path)!r}: {exc}") from None
+    names = set()
+
+    def walk(prefix, d):
+        for k, v in d.items():
+            if k.startswith("__"):
+                continue
+            name = f"{prefix}{k}"
+            if isinstance(v, dict):
+                walk(name + ".", v)
+            else:
+                names.add(name)
+
+    walk("", data)
+
+    def get(name):
+        v = data
+        for part in name.split("."):
+            v = v[part]
+        a = np.asarray(v, dtype=float)
+        if a.ndim > 1 and min(a.shape) > 1:
+            raise FlightDataError(f"{path.name}: variable {name!r} has shape {a.shape}; a "
+                                  "channel is a vector")
+        return a.ravel()
+
+    return names, get
+
+
+def _h5_getter(path: Path):
+    import h5py  # optional dependency (the 'aero' extra), as in _mat_getter
+
+    try:
+        fh = h5py.File(path, "r")
+    except OSError as exc:
+        raise FlightDataError(f"cannot read MATLAB v7.3 file {str(path)!r}: {exc}") from None
+    names = set()
+    fh.visititems(lambda n, obj: names.add(n) if isinstance(obj, h5py.Dataset) else None)
+    names |= {n.replace("/", ".") for n in names}
+
+    def get(name):
+        a = np.asarray(fh[name.replace(".", "/")][()], dtype=float)
+        if a.ndim > 1 and min(a.shape) > 1:
+            raise FlightDataError(f"{path.name}: dataset {name!r} has shape {a.shape}; a "
+                                  "channel is a vector")
+        return a.ravel()
+
+    return names, get
+
+
+def read_channels(fmt: str, path: Path, wanted: dict, *, pattern: str = "{source}.txt",
+                  time: str | None = None, time_scale: float = 1.0) -> dict:
+    """Read the wanted channels of a record.
+
+    Parameters
+    ----------
+    fmt : {'channels', 'csv', 'mat', 'parquet'}
+    path : Path
+        Directory (``channels``) or file.
+    wanted : dict
+        Source name -> (rate_hz or None, where, own time channel or None); ``where`` names
+        the mapping line for messages.
+    pattern : str
+        File name pattern of ``channels`` records.
+    time : str or None
+        Time column of table records.
+    time_scale : float
+        Seconds per unit of the time stamps.
+
+    Returns
+    -------
+    dict of str to RawChannel
+
+    Raises
+    ------
+    FlightDataError
+        A missing file or channel, or one that is not numbers, naming it.
+    """
+    if fmt == "channels":
+        return _from_files(path, pattern, {s: w[:2] for s, w in wanted.items()}, time_scale)
+    if not path.is_file():
+        raise FlightDataError(f"record file {str(path)!r} does not exist")
+    if fmt in ("csv", "parquet"):
+        import pandas as pd  # optional dependency (the 'aero' extra)
+
+        try:
+            df = pd.read_csv(path) if fmt == "csv" else pd.read_parquet(path)
+        except Exception as exc:  # pandas/pyarrow raise many types for malformed files
+            raise FlightDataError(f"cannot read {str(path)!r}: {exc}") from None
+
+        def get(name):
+            try:
+                return pd.to_numeric(df[name], errors="raise").to_numpy(dtype=float)
+            except (ValueError, TypeError):
+                raise FlightDataError(f"{path.name}: column {name!r} is not numeric") from None
+
+        return _from_table(set(df.columns), path, wanted, time, time_scale, get)
+    if fmt == "mat":
+        names, get = _mat_getter(path)
+        return _from_table(names, path, wanted, time, time_scale, get)
+    raise FlightDataError(f"unknown record format {fmt!r}")

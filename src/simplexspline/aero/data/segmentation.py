@@ -1,0 +1,274 @@
+"""Whole flights cut into maneuvers: time lists, excitation detection, ground removal.
+
+A continuous flight record (taxi, take-off, climbs, maneuvers, cruise, landing) becomes the
+schema's maneuvers in three steps:
+
+1. :func:`airborne_mask`: ground and taxi samples are dropped, by a weight-on-wheels channel
+   when there is one, else by airspeed below ``min_airspeed`` or altitude within
+   ``min_height`` of the record's lowest (the runway's) pressure altitude;
+2. the maneuvers: a time list (:func:`read_maneuver_list`, CSV ``start,end,type`` or TOML
+   ``[[maneuver]]``, record time [s]), or :func:`detect_excitation` (control-surface and
+   rate activity above ``threshold`` times the record's quiet level), or every airborne
+   stretch as one maneuver;
+3. :func:`cut`: each maneuver is intersected with the usable samples (airborne, no dropout);
+   a maneuver interrupted by a dropout becomes several, pieces shorter than
+   ``min_duration_s`` are dropped, and every decision is reported.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from simplexspline.errors import InputError
+
+__all__ = ["Segment", "airborne_mask", "read_maneuver_list", "detect_excitation",
+           "airborne_segments", "cut", "EXCITATION_SIGNALS"]
+
+#: Signals whose activity marks a maneuver, and the axis each belongs to.
+EXCITATION_SIGNALS: dict[str, str] = {"de": "elevator", "da": "aileron", "dr": "rudder",
+                                      "q": "elevator", "p": "aileron", "r": "rudder"}
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A maneuver in record time.
+
+    Attributes
+    ----------
+    start, end : float
+        Record time [s].
+    type : str
+        Maneuver type ('3211-elevator', 'excitation-aileron', 'flight', ...).
+    """
+
+    start: float
+    end: float
+    type: str
+
+
+def _runs(mask: np.ndarray):
+    edges = np.diff(np.r_[0, np.asarray(mask, bool).view(np.int8), 0])
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
+
+
+def airborne_mask(n: int, *, wow=None, tas=None, h=None, min_airspeed: float = 25.0,
+                  min_height: float = 15.0) -> tuple[np.ndarray, str]:
+    """Samples in flight.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    wow : ndarray, shape (n,), optional
+        Weight on wheels (> 0.5 on the ground); used alone when given.
+    tas, h : ndarray, shape (n,), optional
+        True airspeed [m/s] and pressure altitude [m].
+    min_airspeed, min_height : float
+        Slower than ``min_airspeed`` [m/s], or lower than ``min_height`` [m] above the
+        lowest altitude of the record, is on the ground.
+
+    Returns
+    -------
+    airborne : ndarray of bool, shape (n,)
+    rule : str
+        How the ground was recognised (for the summary).
+    """
+    if wow is not None and np.isfinite(wow).any():
+        with np.errstate(invalid="ignore"):
+            return ~(np.asarray(wow) > 0.5) & np.isfinite(wow), "weight-on-wheels channel"
+    air = np.ones(n, bool)
+    rules = []
+    with np.errstate(invalid="ignore"):
+        if tas is not None and np.isfinite(tas).any():
+            air &= np.asarray(tas) >= min_airspeed
+            rules.append(f"airspeed >= {min_airspeed:.3g} m/s")
+        if h is not None and np.isfinite(h).any():
+            air &= np.asarray(h) >= np.nanmin(h) + min_height
+            rules.append(f"altitude >= {min_height:.3g} m above the record's lowest")
+    return air, " and ".join(rules) if rules else "no rule (no wow, airspeed or altitude)"
+
+
+def read_maneuver_list(path: str | Path) -> list[Segment]:
+    """A maneuver time list: CSV with columns ``start, end[, type]`` or TOML ``[[maneuver]]``.
+
+    Times are record time [s]. Raises :class:`~simplexspline.errors.InputError` naming the
+    row of an entry with ``end <= start``, of overlapping entries or of a missing column.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"maneuver list {str(path)!r} does not exist")
+    if path.suffix.lower() == ".toml":
+        try:
+            import tomllib
+        except ModuleNotFoundError:  # Python < 3.11: the 'aero' extra installs tomli
+            import tomli as tomllib
+        try:
+            rows = tomllib.loads(path.read_text(encoding="utf-8")).get("maneuver", [])
+        except tomllib.TOMLDecodeError as exc:
+            raise InputError(f"{path}: not valid TOML: {exc}") from None
+    else:
+        import pandas as pd  # optional dependency (the 'aero' extra)
+
+        try:
+            frame = pd.read_csv(path, skipinitialspace=True, comment="#")
+        except Exception as exc:  # pandas raises several types for malformed CSV
+            raise InputError(f"cannot read maneuver list {str(path)!r}: {exc}") from None
+        rows = frame.to_dict("records")
+    out = []
+    for i, row in enumerate(rows, start=1):
+        try:
+            start, end = float(row["start"]), float(row["end"])
+        except (KeyError, TypeError, ValueError):
+            raise InputError(f"{path}: maneuver {i} needs numeric 'start' and 'end' [s] "
+                             f"(record time); got {row!r}") from None
+        kind = row.get("type")
+        kind = "maneuver" if kind is None or (isinstance(kind, float) and np.isnan(kind)) \
+            else str(kind)
+        if not (np.isfinite(start) and np.isfinite(end) and end > start):
+            raise InputError(f"{path}: maneuver {i} ends at {end:g} s, not after its start "
+                             f"{start:g} s")
+        out.append(Segment(start, end, kind))
+    if not out:
+        raise InputError(f"{path}: the maneuver list is empty")
+    out.sort(key=lambda s: s.start)
+    for a, b in zip(out, out[1:]):
+        if b.start < a.end:
+            raise InputError(f"{path}: maneuvers {a} and {b} overlap")
+    return out
+
+
+def _fill(x: np.ndarray) -> np.ndarray:
+    ok = np.isfinite(x)
+    if ok.all() or not ok.any():
+        return np.where(ok, x, 0.0)
+    idx = np.arange(x.size)
+    return np.interp(idx, idx[ok], x[ok])
+
+
+def _moving_mean(x: np.ndarray, k: int) -> np.ndarray:
+    c = np.cumsum(np.r_[0.0, x])
+    half = k // 2
+    lo = np.clip(np.arange(x.size) - half, 0, x.size)
+    hi = np.clip(np.arange(x.size) + half + 1, 0, x.size)
+    return (c[hi] - c[lo]) / (hi - lo)
+
+
+def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: float = 10.0,
+                      window_s: float = 1.0, baseline_s: float = 10.0, pad_s: float = 2.0,
+                      merge_s: float = 4.0) -> tuple[list[Segment], dict]:
+    """Maneuvers where control-surface or rate activity stands out of the quiet level.
+
+    For each signal of :data:`EXCITATION_SIGNALS` present in ``data``: the deviation from a
+    ``baseline_s`` moving median, squared and averaged over ``window_s``, divided by its
+    20th percentile over the usable samples (the record's quiet level; at least 1e-4 of the
+    peak, for noise-free records). A sample is active
+    where any signal exceeds ``threshold``; active stretches closer than ``merge_s`` are
+    merged and padded by ``pad_s``. The type is ``excitation-<axis>`` of the most active
+    signal.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Record time [s] on a uniform grid.
+    data : mapping of str to ndarray
+    usable : ndarray of bool, shape (n,)
+        Airborne samples without dropouts.
+
+    Returns
+    -------
+    segments : list of Segment
+    quiet : dict
+        Quiet level per signal used (its unit squared).
+    """
+    from scipy.ndimage import median_filter  # lazy: scipy.ndimage costs ~0.4 s to import
+
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(round(window_s / dt)))
+    kb = max(3, int(round(baseline_s / dt)) | 1)
+    ratios, quiet = {}, {}
+    for name in EXCITATION_SIGNALS:
+        if name not in data:
+            continue
+        x = np.asarray(data[name], dtype=float)
+        if not np.isfinite(x[usable]).any():
+            continue
+        xf = _fill(x)
+        energy = _moving_mean((xf - median_filter(xf, size=kb, mode="nearest")) ** 2, k)
+        # the quiet level; a floor of 1e-4 of the peak for noise-free (simulated) records
+        level = max(float(np.percentile(energy[usable], 20)),
+                    1e-4 * float(energy[usable].max()))
+        if not level > 0:
+            continue
+        quiet[name] = level
+        ratios[name] = np.where(usable, energy / level, 0.0)
+    if not ratios:
+        raise InputError("excitation detection needs at least one of de, da, dr, p, q, r with "
+                         "data: map those channels, or give a maneuver list")
+    names = list(ratios)
+    stack = np.vstack([ratios[n] for n in names])
+    active = stack.max(axis=0) > threshold
+    runs = _runs(active)
+    merged = []
+    for a, b in runs:
+        if merged and t[a] - t[merged[-1][1] - 1] < merge_s:
+            merged[-1] = (merged[-1][0], b)
+        else:
+            merged.append((a, b))
+    segments = []
+    for a, b in merged:
+        axis = EXCITATION_SIGNALS[names[int(np.argmax(stack[:, a:b].mean(axis=1)))]]
+        segments.append(Segment(float(t[a]) - pad_s, float(t[b - 1]) + pad_s,
+                                f"excitation-{axis}"))
+    return segments, quiet
+
+
+def airborne_segments(t: np.ndarray, usable: np.ndarray, kind: str = "flight") -> list[Segment]:
+    """Every stretch of usable samples as one segment."""
+    return [Segment(float(t[a]), float(t[b - 1]), kind) for a, b in _runs(usable)]
+
+
+def cut(t: np.ndarray, usable: np.ndarray, segments: list[Segment], *,
+        min_duration_s: float = 5.0) -> tuple[list[tuple[np.ndarray, str]], list[str]]:
+    """Rows of each maneuver: the segment intersected with the usable samples.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Record time [s].
+    usable : ndarray of bool, shape (n,)
+    segments : list of Segment
+    min_duration_s : float
+        Shorter pieces are dropped.
+
+    Returns
+    -------
+    pieces : list of (ndarray of int, str)
+        Row indices and type of each maneuver, in time order.
+    notes : list of str
+        What was split or dropped, and why.
+    """
+    pieces, notes = [], []
+    for s in segments:
+        inside = (t >= s.start) & (t <= s.end)
+        if not inside.any():
+            notes.append(f"maneuver {s.type} {s.start:.6g}..{s.end:.6g} s lies outside the "
+                         "record: dropped")
+            continue
+        runs = _runs(inside & usable)
+        lost = int(inside.sum() - sum(b - a for a, b in runs))
+        if len(runs) > 1:
+            notes.append(f"maneuver {s.type} {s.start:.6g}..{s.end:.6g} s split into "
+                         f"{len(runs)} at dropouts or ground samples")
+        elif lost:
+            notes.append(f"maneuver {s.type} {s.start:.6g}..{s.end:.6g} s: {lost} sample(s) "
+                         "on the ground or in dropouts left out")
+        for a, b in runs:
+            if t[b - 1] - t[a] < min_duration_s:
+                notes.append(f"piece {t[a]:.6g}..{t[b - 1]:.6g} s of maneuver {s.type} is "
+                             f"shorter than {min_duration_s:g} s: dropped")
+                continue
+            pieces.append((np.arange(a, b), s.type))
+    return pieces, notes
