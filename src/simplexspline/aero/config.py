@@ -25,7 +25,7 @@ A config file (all tables and keys optional)::
     screen = 3                 # 'add multiplier' and 'schedule on' moves tried per round
     combine = 3                # other improving moves tried on top of a round's best
     max_coefficients = 12000
-    max_samples = 150000
+    max_samples = 60000
     min_points = 10
     moves = ["degree", "resolution", "variables"]
     prior = "auto"             # coarse-model prior: 'auto' (varying structures) | 'coarse'

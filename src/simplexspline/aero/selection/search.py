@@ -122,7 +122,7 @@ class SelectionSettings:
     max_coefficients: int = 12000
     samples_per_coefficient: float = 20.0
     min_points: int = 10
-    max_samples: int = 150_000
+    max_samples: int = 60_000
     moves: tuple = ("degree", "resolution", "variables")
     ridge: float = 1e-8
     smoothing: object = None
