@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 import json
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -281,3 +282,16 @@ def test_settings_are_validated_before_any_work(change, match):
     """Bad settings fail when the settings are made, not after the whole run."""
     with pytest.raises(InputError, match=match):
         IdentificationSettings(**change)
+
+
+def test_parallel_coefficients_equal_the_serial_run(table):
+    """The coefficients' searches run in worker processes: the same models as in one."""
+    settings = IdentificationSettings(coefficients=("CY", "Cm"), selection=FAST, workers=1)
+    serial = identify(table, settings=settings)
+    parallel = identify(table, settings=replace(settings, workers=2))
+    for c in ("CY", "Cm"):
+        assert parallel.results[c].structure == serial.results[c].structure
+        assert np.array_equal(parallel.results[c].model.spline.coefficients,
+                              serial.results[c].model.spline.coefficients)
+        assert np.array_equal(parallel.validation[f"model_{c}"], serial.validation[f"model_{c}"])
+    assert parallel.warnings == serial.warnings

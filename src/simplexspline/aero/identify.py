@@ -579,18 +579,14 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
     has_truth = all(f"true_{c}" in valid.columns for c in coefs)
     workers = min(len(coefs), settings.workers or os.cpu_count() or 1)
     bar = _bar(len(coefs), progress)
+    outcomes = {}
 
     def done(c, outcome):
-        res, pred_v, new_notes, to_warn = outcome
-        results[c] = res
-        valid[f"model_{c}"] = pred_v
-        notes.extend(new_notes)
-        for msg in to_warn:
-            warnings.warn(msg, ThinDataWarning, stacklevel=4)
-        v = res.validation
-        log(f"{res.structure.label():<44} validation rel. RMS {100 * v['rrms']:.2f} %"
+        outcomes[c] = outcome
+        v = outcome[0].validation
+        log(f"{outcome[0].structure.label():<44} validation rel. RMS {100 * v['rrms']:.2f} %"
             + (f", RMS vs truth {v['rms_true']:.3e} (noise {v['noise_rms']:.3e})"
-               if has_truth else "") + f"  [{res.seconds:.1f} s]")
+               if has_truth else "") + f"  [{outcome[0].seconds:.1f} s]")
         bar.update(1)
 
     if workers > 1:
@@ -612,6 +608,13 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
             for c in coefs:
                 done(c, _identify_one(c, structures[c], ident, valid, columns, coverage,
                                       settings, has_truth, source))
+    for c in coefs:          # in coefficient order, however the workers finished
+        res, pred_v, new_notes, to_warn = outcomes[c]
+        results[c] = res
+        valid[f"model_{c}"] = pred_v
+        notes.extend(new_notes)
+        for msg in to_warn:
+            warnings.warn(msg, ThinDataWarning, stacklevel=3)
     bar.close()
     return {c: results[c] for c in coefs}, notes
 
