@@ -15,7 +15,6 @@ from collections.abc import Mapping
 import numpy as np
 
 from simplexspline.aero.data.differentiation import derivative_by_maneuver
-from simplexspline.errors import FlightDataError
 
 __all__ = ["ANGLE_RATE_NAMES", "angle_rates"]
 
@@ -44,16 +43,11 @@ def angle_rates(df, metadata: Mapping, *, half_window: int = 8,
     -------
     dict of str to ndarray, shape (N,)
         ``alphadot_hat`` when ``alpha`` and ``cbar`` are present, ``betadot_hat`` when
-        ``beta`` and ``b`` are (columns that are all NaN count as absent). Dimensionless.
-
-    Raises
-    ------
-    FlightDataError
-        ``maneuver``, ``t`` or ``tas`` missing.
+        ``beta`` and ``b`` are (columns that are all NaN count as absent); nothing without
+        ``maneuver``, ``t`` and ``tas``. Dimensionless.
     """
-    missing = [c for c in ("maneuver", "t", "tas") if c not in df.columns]
-    if missing:
-        raise FlightDataError(f"column(s) {missing} are needed for the flow-angle rates")
+    if any(c not in df.columns for c in ("maneuver", "t", "tas")):
+        return {}
     man = df["maneuver"].to_numpy()
     t = df["t"].to_numpy(dtype=float)
     tas = df["tas"].to_numpy(dtype=float)

@@ -279,13 +279,18 @@ def _solve(space, ne, ridge: float, smoothing=None):
 
 def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray,
              settings: SelectionSettings = PLAIN_FIT, *, prior_degree: int = 3,
-             scored: np.ndarray | None = None) -> tuple[float, int, int]:
+             scored: np.ndarray | None = None,
+             coarse_cache: dict | None = None) -> tuple[float, int, int]:
     """k-fold cross-validation RMS (folds = whole maneuvers) of :func:`fit_structure` with
     the same ``settings`` (default :data:`PLAIN_FIT`).
 
     ``scored`` (bool per sample, optional) limits the RMS to some held-out samples (e.g.
     :func:`~simplexspline.aero.selection.validation.covered_in_fold`); all are fitted on. A mask
     with no sample set scores all of them (no fold can then be judged on covered data).
+
+    ``coarse_cache`` (a dict kept across calls on the *same* columns, y and folds, as the
+    search does) keeps the prior's coarse models per fold: moves that change the grid,
+    degree or continuity share one coarse model, and it is fitted once.
 
     Returns
     -------
@@ -305,9 +310,11 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
     total, parts = _fold_equations(space, u, m, y, folds, k)
     if use_prior:
         cs = coarse_structure(structure, prior_degree)
-        coarse = StructureSpace.build(cs, x, min_points)
-        cu, cm, c_space = coarse.scheduling, coarse.multipliers, coarse.space
-        c_total, c_parts = _fold_equations(c_space, cu, cm, y, folds, k)
+        cache = {} if coarse_cache is None else coarse_cache
+        if (cs, ridge) not in cache:
+            cache[cs, ridge] = _coarse_fold_models(cs, input_matrix(columns, cs.inputs), y,
+                                                   folds, k, min_points, ridge)
+        coarse_models = cache[cs, ridge]
     sse = 0.0
     scored = np.ones(len(y), dtype=bool) if scored is None else np.asarray(scored, bool)
     if not scored.any():
@@ -318,16 +325,24 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
             continue  # nothing of this fold is scored: skip its solve
         train = total - parts[f]
         if use_prior:
-            c_spline = _solve(c_space, c_total - c_parts[f], ridge)
-            coarse_model = AeroModel(cs, coarse.scaling, c_spline, {},
-                                     *coarse.multiplier_scaling)
-            train.merge(_prior_equations(structure, space, scaling, mscale, coarse_model,
-                                         prior_weight))
+            train.merge(_prior_equations(structure, space, scaling, mscale,
+                                         coarse_models[f], prior_weight))
         spline = _solve(space, train, ridge, settings.smoothing)
         pred = evaluate(spline, u[held], None if m is None else m[held])
         sse += float(np.sum((y[held] - pred) ** 2))
     return (float(np.sqrt(sse / np.count_nonzero(scored))), int(space.dim_coefficients),
             int(tri.nsimplex))
+
+
+def _coarse_fold_models(cs: Structure, x: np.ndarray, y: np.ndarray, folds: np.ndarray,
+                        k: int, min_points: int, ridge: float) -> list:
+    """The coarse structure ``cs`` fitted to each fold's training data (the prior of a
+    cross-validated fine structure), from its inputs ``x``."""
+    coarse = StructureSpace.build(cs, x, min_points)
+    c_total, c_parts = _fold_equations(coarse.space, coarse.scheduling, coarse.multipliers,
+                                       y, folds, k)
+    return [AeroModel(cs, coarse.scaling, _solve(coarse.space, c_total - c_parts[f], ridge),
+                      {}, *coarse.multiplier_scaling) for f in range(k)]
 
 
 def _cv_setup(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
@@ -464,6 +479,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
     seen: dict = {}
     history: list = []
+    coarse_models: dict = {}       # the prior's coarse fits per fold, shared by moves
 
     def score(s: Structure, rnd: int, move: str) -> float:
         key = s
@@ -473,7 +489,8 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         trial = Trial(s, float("inf"), rnd, move)
         try:
             trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
-                s, cols, ys, folds, settings, prior_degree=prior_degree, scored=scored)
+                s, cols, ys, folds, settings, prior_degree=prior_degree, scored=scored,
+                coarse_cache=coarse_models)
         except SimplexSplineError as exc:
             trial.error = str(exc)[:300]
         trial.seconds = time.perf_counter() - t0
