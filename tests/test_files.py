@@ -166,3 +166,13 @@ def test_temporaries_are_locked_while_written(tmp_path):
         assert _files.remove_stale(tmp_path, ".identify.*") == [] and d.is_dir()
     assert seen == [[]] and _listing(tmp_path) == ["a.txt"]
 
+
+
+def test_writes_without_locks(tmp_path, monkeypatch):
+    """Where there is no flock, writes work the same (no descriptor is held open)."""
+    monkeypatch.setattr(_files, "fcntl", None)
+    write_text(tmp_path / "a.txt", "x")
+    write_together({tmp_path / "t.csv": b"t", tmp_path / "t.csv.json": b"{}"})
+    with _files.temp_dir(tmp_path, ".identify.", ".tmp") as d:
+        assert d.is_dir()
+    assert _listing(tmp_path) == ["a.txt", "t.csv", "t.csv.json"]

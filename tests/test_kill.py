@@ -5,9 +5,9 @@ signal to its process group at a chosen moment, then checks that the previous ou
 byte for byte intact and that only hidden temporaries are beside it; a last run must
 complete and leave no temporary behind (a killed run's temporaries, whose writer
 is gone, are removed by the next write). Moments: ``start`` (0.3 s: Python still
-importing), ``mid`` (30 % of the first run's time into the rerun) and ``write`` (as soon as the output's
-temporary file or staging directory appears). The default suite kills ``identify`` twice while
-it writes; the full sweep (three commands x two signals x three moments) is marked slow.
+importing), ``mid`` (30 % of the first run's time into the rerun) and ``write`` (as soon
+as the output's temporary file or staging directory appears). The default suite kills
+``identify`` twice while it writes; the full sweep (three commands x two signals x three moments) is marked slow.
 """
 
 from __future__ import annotations

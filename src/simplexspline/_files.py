@@ -72,8 +72,10 @@ def _hold(make: Callable[[], tuple[int | None, str]]) -> tuple[int | None, str]:
     one is made: the path held is always the one locked."""
     while True:
         fd, path = make()
-        if fcntl is None:
-            return fd, path
+        if fcntl is None:         # nothing to hold (and an open file could not be renamed)
+            if fd is not None:
+                os.close(fd)
+            return None, path
         try:
             if fd is None:
                 fd = _open_for_lock(path)
@@ -197,7 +199,8 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Pat
             os.unlink(tmp)
         raise
     finally:
-        os.close(fd)
+        if fd is not None:
+            os.close(fd)
     return path
 
 
@@ -267,9 +270,10 @@ def write_together(contents: Mapping[str | os.PathLike, bytes]) -> list[Path]:
             remove_stale(path.parent, f".{glob_escape(path.name)}.*.tmp")
             fd, tmp = _hold(lambda path=path: tempfile.mkstemp(
                 prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
-            locks.append(fd)
+            if fd is not None:
+                locks.append(fd)
             temps.append((path, tmp))
-            with os.fdopen(os.dup(fd), "wb") as fh:
+            with (os.fdopen(os.dup(fd), "wb") if fd is not None else open(tmp, "wb")) as fh:
                 fh.write(data)
                 fh.flush()
                 os.fsync(fh.fileno())
