@@ -2,11 +2,14 @@
 
 Each case runs a command to completion (the previous output), runs it again and sends a
 signal to its process group at a chosen moment, then checks that the previous output is
-byte for byte intact and that only hidden temporaries are beside it; a last run must
+byte for byte intact (or, when the signal came after the last rename, the new output
+whole) and that only hidden temporaries are beside it; SIGINT inside ``main()`` must give
+exit 130 and one line (before it, while Python imports, or during interpreter exit it is
+Python's own KeyboardInterrupt, exit -2). A last run must
 complete and leave no temporary behind (a killed run's temporaries, whose writer
 is gone, are removed by the next write). Moments: ``start`` (0.3 s: Python still
-importing), ``mid`` (30 % of the first run's time into the rerun) and ``write`` (as soon
-as the output's temporary file or staging directory appears). The default suite kills
+importing), ``mid`` (halfway between the end of the imports and the end of the first
+run) and ``write`` (as soon as the output's temporary file or staging directory appears). The default suite kills
 ``identify`` twice while it writes; the full sweep (three commands x two signals x three moments) is marked slow.
 """
 
@@ -53,7 +56,8 @@ def _default_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def _killed(args: list, cwd: Path, sig: int, moment: str, watch: Path, seconds: float):
+def _killed(args: list, cwd: Path, sig: int, moment: str, watch: Path,
+            seconds: tuple[float, float]):
     """Run the command and send ``sig`` to its process group at ``moment``; returns
     (exit code, stderr, whether the signal was sent before the command ended)."""
     old = set(_temporaries(watch))                     # a previous killed run's
@@ -61,7 +65,8 @@ def _killed(args: list, cwd: Path, sig: int, moment: str, watch: Path, seconds: 
                             stderr=subprocess.PIPE, text=True, start_new_session=True,
                             preexec_fn=_default_sigint)
     t0 = time.monotonic()
-    due = {"start": 0.3, "mid": 0.3 * seconds}.get(moment)   # a rerun can be faster
+    # midway between the end of the imports and the end of the first run
+    due = {"start": 0.3, "mid": seconds[0] + 0.5 * (seconds[1] - seconds[0])}.get(moment)
     sent = False
     while proc.poll() is None and time.monotonic() - t0 < 600:
         if due is not None and time.monotonic() - t0 >= due \
@@ -81,8 +86,11 @@ def _case(command: str, kills: list, tmp_path: Path, sources: dict) -> None:
     work.mkdir()
     args, output = sources[command](work)
     t0 = time.monotonic()
+    subprocess.run(CLI[:1] + ["-c", "import simplexspline.cli"], check=True, timeout=300)
+    imports = time.monotonic() - t0
+    t0 = time.monotonic()
     _run(args, work)                                   # the previous output
-    seconds = time.monotonic() - t0
+    seconds = (imports, time.monotonic() - t0)
     before = _snapshot(work)
     for sig, moment in kills:
         rc, err, sent = _killed(args, work, sig, moment, output if output.is_dir() else work,
@@ -90,16 +98,20 @@ def _case(command: str, kills: list, tmp_path: Path, sources: dict) -> None:
         assert sent, f"{command} ended before the {moment} moment: {err}"
         if sig == signal.SIGKILL:
             assert rc == -signal.SIGKILL
-        elif moment != "start":                        # after the imports: one line, 130
+        elif moment == "write" or rc == 130:          # in main(): one line, exit 130
             lines = err.strip().splitlines()
             assert rc == 130 and lines == [f"simplexspline {command}: interrupted"], err
-        else:
-            assert rc in (130, -signal.SIGINT, 1), err  # interrupted while importing
+        else:   # before main() (imports) or after it (interpreter exit): Python's own
+            assert rc == -signal.SIGINT, err
         after = _snapshot(work)
         leftovers = [k for k in after if k not in before]
         assert all(any(part.startswith(".") for part in Path(k).parts)
                    for k in leftovers), leftovers       # only hidden temporaries
-        assert {k: v for k, v in after.items() if k in before} == before  # output intact
+        visible = {k: v for k, v in after.items() if k in before}
+        # the previous output intact, or (the signal came after the last rename) the new
+        # one whole: every entry there, each file renamed into place complete
+        assert visible == before or sorted(visible) == sorted(before) and sig == \
+            signal.SIGINT, (command, sig, moment)
     _run(args, work)                                   # the next run cleans up
     assert _temporaries(work) == []
     assert set(_snapshot(work)) == set(before)
