@@ -5,12 +5,13 @@ signal to its process group at a chosen moment, then checks that the previous ou
 byte for byte intact (or, when the signal came after the last rename, the new output
 whole) and that only hidden temporaries are beside it; SIGINT inside ``main()`` must give
 exit 130 and one line (before it, while Python imports, or during interpreter exit it is
-Python's own KeyboardInterrupt, exit -2). A last run must
-complete and leave no temporary behind (a killed run's temporaries, whose writer
-is gone, are removed by the next write). Moments: ``start`` (0.3 s: Python still
-importing), ``mid`` (halfway between the end of the imports and the end of the first
-run) and ``write`` (as soon as the output's temporary file or staging directory appears). The default suite kills
-``identify`` twice while it writes; the full sweep (three commands x two signals x three moments) is marked slow.
+Python's own KeyboardInterrupt, exit -2). A last run must complete and leave no temporary
+behind (a killed run's temporaries, whose writer is gone, are removed by the next write).
+
+Moments: ``start`` (0.3 s: Python still importing), ``mid`` (halfway between the end of
+the imports and the end of the first run) and ``write`` (as soon as the output's temporary
+file or staging directory appears). The default suite kills ``identify`` twice while it
+writes; the full sweep (three commands x two signals x three moments) is marked slow.
 """
 
 from __future__ import annotations
