@@ -99,28 +99,80 @@ def test_written_files_follow_the_umask(tmp_path, mask):
         assert (tmp_path / name).stat().st_mode & 0o777 == 0o666 & ~mask
 
 
+def _live_writer(path):
+    """Hold ``path``'s lock as a writer at work does (released when the descriptor closes)."""
+    fcntl = pytest.importorskip("fcntl")
+    fd = os.open(path, os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    return fd
+
+
 def test_stale_temporaries_of_a_killed_run_are_removed_by_the_next_write(tmp_path):
+    """A temporary nobody holds (its writer was killed) goes at the next write to the same
+    target, however young; a live writer's stays, and so do other targets' temporaries."""
     target = tmp_path / "model.json"
     stale = tmp_path / ".model.json.abc123.tmp"
     fresh = tmp_path / ".model.json.def456.tmp"          # a writer still at work
     other = tmp_path / ".other.json.xyz.tmp"
     for p in (stale, fresh, other):
         p.write_text("partial")
-    old = time.time() - 2 * _files.STALE_AFTER_S
-    os.utime(stale, (old, old))
-    os.utime(other, (old, old))
-    write_text(target, "{}")
-    assert _listing(tmp_path) == sorted([".model.json.def456.tmp", ".other.json.xyz.tmp",
-                                         "model.json"])
+    fd = _live_writer(fresh)
+    try:
+        write_text(target, "{}")
+        assert _listing(tmp_path) == sorted([".model.json.def456.tmp", ".other.json.xyz.tmp",
+                                             "model.json"])
+    finally:
+        os.close(fd)
+    write_text(target, "{}")                             # the writer is gone now
+    assert _listing(tmp_path) == sorted([".other.json.xyz.tmp", "model.json"])
 
 
-def test_remove_stale_takes_directories_and_ignores_young_ones(tmp_path):
+def test_remove_stale_takes_directories_and_keeps_live_ones(tmp_path):
+    dead = tmp_path / ".identify.1.tmp"
+    (dead / "models").mkdir(parents=True)
+    live = tmp_path / ".identify.2.tmp"
+    live.mkdir()
+    fd = _live_writer(live)
+    try:
+        assert _files.remove_stale(tmp_path, ".identify.*") == [dead]
+        assert _listing(tmp_path) == [".identify.2.tmp"]
+    finally:
+        os.close(fd)
+
+
+def test_remove_stale_without_locks_goes_by_age(tmp_path, monkeypatch):
+    """Where the platform has no flock, only temporaries older than STALE_AFTER_S go."""
+    monkeypatch.setattr(_files, "fcntl", None)
     old_dir = tmp_path / ".identify.1.tmp"
     (old_dir / "models").mkdir(parents=True)
-    young = tmp_path / ".identify.2.tmp"
-    young.mkdir()
+    (tmp_path / ".identify.2.tmp").mkdir()
     old = time.time() - 2 * _files.STALE_AFTER_S
     os.utime(old_dir, (old, old))
     assert _files.remove_stale(tmp_path, ".identify.*") == [old_dir]
     assert _listing(tmp_path) == [".identify.2.tmp"]
 
+
+def test_temporaries_are_locked_while_written(tmp_path):
+    """A writer's own temporary file and directory survive another writer's clean-up."""
+    seen = []
+
+    def write(tmp):
+        seen.append(_files.remove_stale(tmp_path, ".*.tmp"))
+        with open(tmp, "w") as fh:
+            fh.write("x")
+
+    _files.atomic_write(tmp_path / "a.txt", write)
+    with _files.temp_dir(tmp_path, ".identify.", ".tmp") as d:
+        assert _files.remove_stale(tmp_path, ".identify.*") == [] and d.is_dir()
+    assert seen == [[]] and _listing(tmp_path) == ["a.txt"]
+
+
+
+def test_writes_without_locks(tmp_path, monkeypatch):
+    """Where there is no flock, writes work the same (no descriptor is held open)."""
+    monkeypatch.setattr(_files, "fcntl", None)
+    write_text(tmp_path / "a.txt", "x")
+    write_together({tmp_path / "t.csv": b"t", tmp_path / "t.csv.json": b"{}"})
+    with _files.temp_dir(tmp_path, ".identify.", ".tmp") as d:
+        assert d.is_dir()
+    assert _listing(tmp_path) == ["a.txt", "t.csv", "t.csv.json"]

@@ -4,24 +4,35 @@ Every file the project writes goes through :func:`atomic_write`: a temporary fil
 the target, flushed, then renamed over it, so a reader sees the old file or the new one,
 never half of one. :func:`jsonable` turns numpy scalars and arrays (and tuples, sets, NaN)
 into plain JSON values.
+
+A writer holds an advisory lock (``flock``, where the platform has it) on each of its
+temporary files and directories for as long as it works on them: :func:`remove_stale`
+removes at once a temporary whose writer is gone (killed), and keeps a live writer's.
+:func:`locked` serialises writers of one directory (two ``identify -o DIR`` at once).
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import secrets
 import shutil
 import tempfile
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from glob import escape as glob_escape
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["STALE_AFTER_S", "atomic_write", "jsonable", "remove_stale", "write_bytes",
-           "write_text", "write_together"]
+try:
+    import fcntl
+except ImportError:  # not POSIX: no locks; stale temporaries go by age alone
+    fcntl = None
+
+__all__ = ["STALE_AFTER_S", "atomic_write", "jsonable", "locked", "remove_stale",
+           "temp_dir", "write_bytes", "write_text", "write_together"]
 
 
 def _umask() -> int:
@@ -45,18 +56,63 @@ def _as_if_created(tmp: str | os.PathLike) -> None:
     os.chmod(tmp, 0o666 & ~_umask())
 
 
-#: Temporary files and directories older than this [s] were left by a killed run: the next
-#: write to the same target removes them (younger ones may belong to a live writer).
+#: Temporary files and directories older than this [s] are removed by the next write to the
+#: same place even when their writer cannot be asked (no ``flock`` on the platform).
 STALE_AFTER_S = 3600.0
+
+
+def _open_for_lock(path: str | os.PathLike) -> int:
+    """A read-only descriptor of a file or directory, to hold a lock on."""
+    return os.open(path, os.O_RDONLY)
+
+
+def _hold(make: Callable[[], tuple[int | None, str]]) -> tuple[int | None, str]:
+    """Make a temporary (``make() -> (descriptor or None, path)``) and lock it for its
+    writer. Should a cleaner have removed it between its creation and the lock, a new
+    one is made: the path held is always the one locked."""
+    while True:
+        fd, path = make()
+        if fcntl is None:         # nothing to hold (and an open file could not be renamed)
+            if fd is not None:
+                os.close(fd)
+            return None, path
+        try:
+            if fd is None:
+                fd = _open_for_lock(path)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            if os.path.samestat(os.fstat(fd), os.lstat(path)):
+                return fd, path
+        except FileNotFoundError:
+            pass
+        if fd is not None:
+            os.close(fd)
+
+
+def _owner_gone(entry: Path) -> bool:
+    """Whether no live process holds the lock of a temporary (its writer was killed)."""
+    if fcntl is None:
+        return False
+    try:
+        fd = _open_for_lock(entry)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return True
+    except OSError:
+        return False
+    finally:
+        os.close(fd)              # the lock goes with it; the entry is removed right after
 
 
 def remove_stale(directory: str | os.PathLike, pattern: str,
                  older_than_s: float = STALE_AFTER_S) -> list[Path]:
     """Remove the temporaries matching ``pattern`` in ``directory`` that a killed run left.
 
-    Only entries whose modification time is older than ``older_than_s`` are removed, so a
-    writer still at work keeps its files. Errors (an entry vanishing meanwhile, no
-    permission) are ignored: cleaning up never stops a write.
+    An entry is removed when no process holds its lock (its writer is gone: every writer
+    here locks its temporaries) or, where locks are not available, when it is older than
+    ``older_than_s``. A live writer keeps its files. Errors (an entry vanishing meanwhile,
+    no permission) are ignored: cleaning up never stops a write.
 
     Returns
     -------
@@ -67,9 +123,12 @@ def remove_stale(directory: str | os.PathLike, pattern: str,
     now = time.time()
     for entry in Path(directory).glob(pattern):
         try:
-            if now - entry.lstat().st_mtime < older_than_s:
+            if entry.is_symlink():
                 continue
-            if entry.is_dir() and not entry.is_symlink():
+            if not _owner_gone(entry) and (fcntl is not None
+                                           or now - entry.lstat().st_mtime < older_than_s):
+                continue
+            if entry.is_dir():
                 shutil.rmtree(entry)
             else:
                 entry.unlink()
@@ -77,6 +136,35 @@ def remove_stale(directory: str | os.PathLike, pattern: str,
         except OSError:
             continue
     return removed
+
+
+@contextlib.contextmanager
+def temp_dir(directory: str | os.PathLike, prefix: str, suffix: str) -> Iterator[Path]:
+    """A locked temporary directory inside ``directory``, removed on exit (whatever
+    happened); :func:`remove_stale` leaves it alone while this process lives."""
+    fd, path = _hold(lambda: (None, tempfile.mkdtemp(prefix=prefix, suffix=suffix,
+                                                      dir=directory)))
+    try:
+        yield Path(path)
+    finally:
+        shutil.rmtree(path, ignore_errors=True)
+        if fd is not None:
+            os.close(fd)
+
+
+@contextlib.contextmanager
+def locked(directory: str | os.PathLike) -> Iterator[None]:
+    """Hold ``directory``'s exclusive lock: writers that replace entries of one directory
+    take turns (a no-op where the platform has no ``flock``)."""
+    if fcntl is None:
+        yield
+        return
+    fd = _open_for_lock(directory)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
 
 
 def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Path:
@@ -100,8 +188,8 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Pat
     """
     path = Path(path)
     remove_stale(path.parent, f".{glob_escape(path.name)}.*.tmp")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    fd, tmp = _hold(lambda: tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
+                                             dir=path.parent))
     try:
         write(tmp)
         _as_if_created(tmp)
@@ -110,6 +198,9 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Pat
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+    finally:
+        if fd is not None:
+            os.close(fd)
     return path
 
 
@@ -173,11 +264,16 @@ def write_together(contents: Mapping[str | os.PathLike, bytes]) -> list[Path]:
     temps: list[tuple[Path, str]] = []
     backups: dict[Path, str] = {}
     done: list[Path] = []
+    locks: list[int] = []
     try:
         for path, data in zip(targets, contents.values()):
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            remove_stale(path.parent, f".{glob_escape(path.name)}.*.tmp")
+            fd, tmp = _hold(lambda path=path: tempfile.mkstemp(
+                prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+            if fd is not None:
+                locks.append(fd)
             temps.append((path, tmp))
-            with os.fdopen(fd, "wb") as fh:
+            with (os.fdopen(os.dup(fd), "wb") if fd is not None else open(tmp, "wb")) as fh:
                 fh.write(data)
                 fh.flush()
                 os.fsync(fh.fileno())
@@ -204,4 +300,6 @@ def write_together(contents: Mapping[str | os.PathLike, bytes]) -> list[Path]:
         for backup in backups.values():
             if os.path.exists(backup):
                 os.unlink(backup)
+        for fd in locks:
+            os.close(fd)
     return targets

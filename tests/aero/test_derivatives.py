@@ -384,17 +384,17 @@ def test_cli_points_file(model_dir, tmp_path):
 def test_report_section(models):
     """The report's 'Stability and control derivatives' section: the table at the
     identification-data medians and the figures."""
+    from simplexspline.aero.report.document import to_html, to_markdown
     from simplexspline.aero.report.page import _derivative_section, _Renderer
 
     ident = pd.DataFrame(_data(401, seed=2))
-    H, M, jobs = [], [], []
+    jobs = []
 
     def slot(label, fn, *args):
         jobs.append((label, fn, args))
-        return label
 
-    _derivative_section(models, ident, H, M, slot)
-    html, md = "\n".join(H), "\n".join(M)
+    blocks = [b for b in _derivative_section(models, ident, slot) if b is not None]
+    html, md = to_html(blocks, title="t"), to_markdown(blocks)
     assert '<h2 id="derivatives">Stability and control derivatives</h2>' in html
     a, q = np.median(ident.alpha), np.median(ident.q)
     cm_alpha = -0.5 + 1.6 * a + 0.5 * q**2

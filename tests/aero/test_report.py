@@ -188,3 +188,106 @@ def test_markdown_report_renders_no_markup_from_data(report):
     assert "<em>" not in html.split("<h2>")[0]                 # no *x* / _y_ emphasis
     title = re.search(r"<h1>(.*?)</h1>", html).group(1)
     assert "&lt;img src=x onerror=alert(1)&gt;" in title and "[c](javascript:alert(1))" in title
+
+
+# ---------------------------------------------------------------------------- document model
+HOSTILE = [EVIL, "# heading", "- item", "1. item", "> quote", "---", "    indented code",
+           "a\n# heading on a new line", "x\r\n---\r\ny", "<b>bold</b> & &amp;", "`` ` ``",
+           "![img](x.png)", "<https://example.com>", "line\u2028# sep", "| a | b |",
+           "\"quoted\" 'single'", "=====", "+ plus", "2) item", "~~~"]
+
+
+def _blocks(text: str) -> list:
+    from simplexspline.aero.report import document as d
+
+    return [d.Heading(1, text), d.Heading(2, text, anchor=text),
+            d.Paragraph(text), d.Paragraph([text, " ", d.Emph(text), " ", d.Strong(text), " ",
+                         d.CodeSpan(text)]),
+            d.BulletList([text, [text, d.CodeSpan(text)]]),
+            d.Table([text, "b"], [[text, (text, "good")]], left=(0,), classes=["acc"]),
+            d.Code(text), d.Code(text, summary=text), d.Alert(text),
+            d.Nav([(text, text)]), d.Figure(text, text, b"\x89PNG"), d.Footer(text)]
+
+
+def _html_tags(page: str) -> list:
+    from html.parser import HTMLParser
+
+    tags = []
+
+    class Collect(HTMLParser):
+        def handle_starttag(self, tag, attrs):
+            tags.append((tag, dict(attrs)))
+
+    Collect().feed(page)
+    return tags
+
+
+@pytest.mark.parametrize("text", HOSTILE)
+def test_document_html_escapes_data(text):
+    """Every block's text is data in HTML: the page has exactly the elements of its blocks,
+    and the text comes back unchanged (attribute values included)."""
+    from simplexspline.aero.report.document import to_html
+
+    page = to_html(_blocks(text), title=text)
+    tags = [t for t, _ in _html_tags(page)]
+    assert tags == ["html", "head", "meta", "title", "style", "body", "h1", "h2", "p", "p",
+                    "em", "strong", "code", "ul", "li", "li", "code", "table", "thead", "tr",
+                    "th", "th", "tbody", "tr", "td", "td", "pre", "details", "summary", "pre",
+                    "div", "nav", "a", "figure", "img", "figcaption", "hr", "p", "small"]
+    attrs = dict(_html_tags(page))
+    assert attrs["h2"]["id"] == text and attrs["a"]["href"] == "#" + text
+    assert attrs["img"]["alt"] == text and attrs["img"]["src"].startswith("data:image/png;")
+    import html as html_module
+    assert html_module.unescape(page).count(text) >= 10
+
+
+@pytest.mark.parametrize("text", HOSTILE)
+def test_document_markdown_escapes_data(text):
+    """Every block's text is data in Markdown: rendered by a CommonMark renderer, the
+    document has exactly the elements of its blocks (no heading, list, quote, rule, code,
+    link, image, emphasis or raw HTML from data), and its words come back as text."""
+    markdown_it = pytest.importorskip("markdown_it")
+    from simplexspline.aero.report.document import to_markdown
+
+    page = markdown_it.MarkdownIt("commonmark").render(to_markdown(_blocks(text)))
+    tags = [t for t, _ in _html_tags(page)]
+    # commonmark has no tables: the table is one paragraph of text
+    assert tags == ["h1", "h2", "p", "p", "em", "strong", "code", "ul", "li", "li", "code",
+                    "p", "pre", "code", "pre", "code", "blockquote", "p", "strong", "p", "img",
+                    "hr", "p"]
+    images = [a for t, a in _html_tags(page) if t == "img"]
+    from urllib.parse import unquote
+    assert len(images) == 1 and unquote(images[0]["src"]) == f"figures/{text}.png"
+    from html import unescape
+    words = [w for w in re.split(r"\s+", text) if w]
+    plain = unescape(re.sub(r"<[^>]+>", " ", page))
+    assert all(w in plain for w in words)
+
+
+def test_document_code_fence_outlasts_backticks():
+    """A Markdown code block or span is closed only by its own fence, whatever backtick runs
+    the text holds."""
+    markdown_it = pytest.importorskip("markdown_it")
+    from simplexspline.aero.report.document import Code, CodeSpan, Paragraph, to_markdown
+
+    text = "a\n```\n<b>x</b>\n````\nb"
+    md = to_markdown([Code(text), Paragraph(["x ", CodeSpan("``` `` `")])])
+    assert md.startswith("`````\n" + text + "\n`````\n")
+    page = markdown_it.MarkdownIt("commonmark").render(md)
+    assert "<b>" not in page and page.count("<pre>") == 1
+    assert "<code>``` `` `</code>" in page
+
+
+def test_document_only_and_unknown_blocks():
+    """Blocks marked html or md appear in that format alone; anything else is refused."""
+    from simplexspline.aero.report.document import Nav, Paragraph, to_html, to_markdown
+
+    blocks = [Paragraph("both"), Paragraph("web", only="html"), Paragraph("text", only="md"),
+              Nav([("a", "link")])]
+    html_page, md = to_html(blocks, title="t"), to_markdown(blocks)
+    assert "both" in html_page and "web" in html_page and "text" not in html_page
+    assert md == "both\n\ntext\n"
+    with pytest.raises(TypeError, match="not a report block: str"):
+        to_html(["<p>raw</p>"], title="t")
+    with pytest.raises(TypeError, match="not a Markdown report block: str"):
+        to_markdown(["raw"])

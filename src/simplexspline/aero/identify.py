@@ -14,8 +14,8 @@ import math
 import json
 import multiprocessing
 import os
+import contextlib
 import shutil
-import tempfile
 import time
 import warnings
 from collections.abc import Callable, Mapping
@@ -46,7 +46,7 @@ from simplexspline.aero.selection.validation import (
     scores_by_coverage,
     split_by_maneuver,
 )
-from simplexspline._files import jsonable, remove_stale
+from simplexspline._files import jsonable, locked, remove_stale, temp_dir
 from simplexspline._workers import ignore_interrupts
 from simplexspline._version import __version__
 from simplexspline.errors import FlightDataError, InputError
@@ -309,28 +309,30 @@ class Identification:
         if model_format not in ("json", "npz"):
             raise InputError(f"model_format must be 'json' or 'npz', got {model_format!r}")
         check_output_dir(outdir, overwrite=overwrite)
-        created = not outdir.exists()
-        outdir.mkdir(exist_ok=True)
-        remove_stale(outdir, ".identify.*")       # left by a killed run (older than 1 h)
-        tmp = Path(tempfile.mkdtemp(prefix=".identify.", suffix=".tmp", dir=outdir))
         try:
-            (tmp / "models").mkdir()
-            for c, res in self.results.items():
-                res.model.save(tmp / "models" / f"{c}.{model_format}")
-            (tmp / "summary.json").write_text(
-                json.dumps(jsonable(self.summary()), indent=1, allow_nan=True) + "\n",
-                encoding="utf-8")
-            if report:
-                write_report(self, tmp, progress=progress)
-            (tmp / OUTPUT_MARKER).write_text(json.dumps(
-                {"format": "simplexspline.identification", "version": 1}) + "\n")
-            _move_entries(tmp, outdir)
+            outdir.mkdir()
+            created = True
+        except FileExistsError:
+            created = False
+        remove_stale(outdir, ".identify.*")       # left by a killed run
+        try:
+            with temp_dir(outdir, ".identify.", ".tmp") as tmp:
+                (tmp / "models").mkdir()
+                for c, res in self.results.items():
+                    res.model.save(tmp / "models" / f"{c}.{model_format}")
+                (tmp / "summary.json").write_text(
+                    json.dumps(jsonable(self.summary()), indent=1, allow_nan=True) + "\n",
+                    encoding="utf-8")
+                if report:
+                    write_report(self, tmp, progress=progress)
+                (tmp / OUTPUT_MARKER).write_text(json.dumps(
+                    {"format": "simplexspline.identification", "version": 1}) + "\n")
+                _move_entries(tmp, outdir)
         except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
             if created:
-                shutil.rmtree(outdir, ignore_errors=True)
+                with contextlib.suppress(OSError):
+                    outdir.rmdir()                # only when nothing else was put there
             raise
-        shutil.rmtree(tmp, ignore_errors=True)
         return outdir
 
 
@@ -372,7 +374,13 @@ def check_output_dir(outdir, *, overwrite: bool = False) -> Path:
 def _move_entries(new: Path, outdir: Path) -> None:
     """Replace the output entries of ``outdir`` by those of ``new`` (both in one file
     system); previous entries the new output does not have are removed (they are ours)."""
-    trash = Path(tempfile.mkdtemp(prefix=".identify.", suffix=".old", dir=outdir))
+    with locked(outdir), temp_dir(outdir, ".identify.", ".old") as trash:
+        _swap_entries(new, outdir, trash)      # concurrent saves take turns: one whole wins
+
+
+def _swap_entries(new: Path, outdir: Path, trash: Path) -> None:
+    """Move our entries of ``outdir`` to ``trash`` and those of ``new`` in; on failure put
+    the previous ones back."""
     moved: list = []
     try:
         for name in reversed(OUTPUT_ENTRIES):          # the marker last
@@ -391,8 +399,6 @@ def _move_entries(new: Path, outdir: Path) -> None:
             if (trash / name).exists() or (trash / name).is_symlink():
                 os.replace(trash / name, target)
         raise
-    finally:
-        shutil.rmtree(trash, ignore_errors=True)
 
 
 def file_hash(path) -> str:

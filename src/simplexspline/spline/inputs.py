@@ -62,6 +62,9 @@ def as_points(x, *, name: str = "x", ndim: int | None = None) -> np.ndarray:
 def as_values(y, npts: int, *, name: str = "y") -> np.ndarray:
     """Observations as a finite float array of shape (N,)."""
     arr = _as_float(y, name)
+    if arr.ndim == 0:
+        raise InputError(f"{name} must hold one value per point, shape ({npts},); got a "
+                         "single number")
     if arr.ndim != 1:
         raise InputError(f"{name} must be one-dimensional with shape ({npts},), got {arr.shape}; "
                          "fit one output at a time")
@@ -72,9 +75,12 @@ def as_values(y, npts: int, *, name: str = "y") -> np.ndarray:
 
 
 def as_weights(w, npts: int) -> np.ndarray | None:
-    """Per-sample weights (inverse variances) as a finite, non-negative array (N,)."""
+    """Per-sample weights (inverse variances) as a finite, non-negative array (N,); a
+    single number is the same weight for every sample (as scikit-learn's sample_weight)."""
     if w is None:
         return None
+    if np.ndim(w) == 0:
+        w = np.full(npts, _as_float(w, "weights"))
     arr = as_values(w, npts, name="weights")
     if np.any(arr < 0):
         raise InputError(f"weights must be >= 0; {int((arr < 0).sum())} are negative")

@@ -54,6 +54,27 @@ JSBSIM_PROPERTIES = {
 }
 
 
+#: A JSBSim property path: names of letters, digits, '_' and '-' joined by '/', each with
+#: an optional [index] (e.g. ``fcs/elevator-pos-rad``, ``propulsion/engine[0]/thrust-lbs``).
+_PROPERTY = re.compile(r"[A-Za-z_][\w-]*(\[\d+\])?(/[A-Za-z_][\w-]*(\[\d+\])?)*", re.ASCII)
+
+#: Characters XML 1.0 cannot hold at all, not even escaped.
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def _property(name, what: str) -> str:
+    """``name`` checked as a JSBSim property path (it goes into the XML as it is)."""
+    if not isinstance(name, str) or not _PROPERTY.fullmatch(name):
+        raise InputError(f"{what} {name!r} is not a JSBSim property name: use names of "
+                         "letters, digits, '_' and '-' joined by '/' (e.g. aero/qhat)")
+    return name
+
+
+def _xml_text(text) -> str:
+    """Text an XML 1.0 document can hold (characters it cannot become U+FFFD)."""
+    return _NOT_XML.sub("\ufffd", str(text))
+
+
 def provenance_summary(obj):
     """A model's provenance (JSON-like) shortened for a comment or a sidecar: lists of
     more than 8 values become ``'<n values>'``; mappings get string keys."""
@@ -229,6 +250,10 @@ class LookupTable:
                 "outside the model's domain with outside='nan'); JSBSim tables cannot hold "
                 "NaN: use outside='clamp' or 'extrapolate', or a grid inside the domain")
         props = {**JSBSIM_PROPERTIES, **dict(properties or {})}
+        for var, prop in dict(properties or {}).items():
+            _property(prop, f"the property of {var!r}")
+        if function_name is not None:
+            _property(function_name, "the function name")
         unknown = sorted(set(dict(properties or {})) - set(self.variables))
         if unknown:
             raise InputError(f"properties given for unknown variable(s) {unknown}; the "
@@ -262,9 +287,10 @@ class LookupTable:
         if missing:
             comment.append(f"Define the properties {[_prop(props, v) for v in missing]} "
                            "in the simulation (e.g. with a <function> in a <system>).")
-        text = "\n     ".join(c.replace("--", "- -") for c in comment)
+        # no '--' inside a comment, however many dashes in a row
+        text = "\n     ".join(re.sub("-(?=-)", "- ", _xml_text(c)) for c in comment)
         lines = [f"<!-- {text}\n-->", f'<function name="{escape(name, {chr(34): "&quot;"})}">',
-                 f"  <description>{escape(str(self.info.get('label', self.output)))} "
+                 f"  <description>{escape(_xml_text(self.info.get('label', self.output)))} "
                  "(simplexspline)</description>", "  <table>"]
         for i, k in enumerate(vary):
             lines.append(f'    <independentVar lookup="{("row", "column", "table")[i]}">'

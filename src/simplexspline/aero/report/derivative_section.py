@@ -1,10 +1,11 @@
 """The identification report's section on stability and control derivatives.
 
-The table of the models' partial derivatives (:mod:`~simplexspline.aero.derivatives.stability`) at
-the identification data's median condition, each model's partial derivatives along alpha
-at three Mach numbers, and the alpha x Mach maps of the derivatives with respect to the
-angles and control surfaces; :func:`_derivative_section` adds the section to the HTML and
-Markdown pages of :func:`~simplexspline.aero.report.page.write_report`.
+The table of the models' partial derivatives
+(:mod:`~simplexspline.aero.derivatives.stability`) at the identification data's median
+condition, each model's partial derivatives along alpha at three Mach numbers, and the
+alpha x Mach maps of the derivatives with respect to the angles and control surfaces;
+:func:`_derivative_section` gives the section's blocks to
+:func:`~simplexspline.aero.report.page.write_report`.
 """
 
 from __future__ import annotations
@@ -12,15 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from simplexspline.aero.report.figures import _slice_values
-from simplexspline.aero.report.markup import (
-    _esc,
-    _fmt,
-    _html_table,
-    _md_table,
-    _md_text,
-    _unit,
-)
-from simplexspline.aero.report.render import _Figure
+from simplexspline.aero.report.document import Figure, Heading, Paragraph, Table
+from simplexspline.aero.report.markup import _fmt, _unit
 from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
 from simplexspline.aero.derivatives.stability import derivatives, reference_conditions
 
@@ -36,7 +30,7 @@ def _sweep_axes(model, ident) -> dict:
     return axes
 
 
-def _fig_derivatives(r, c: str, model, ident, ref: dict) -> _Figure | None:
+def _fig_derivatives(r, c: str, model, ident, ref: dict) -> Figure | None:
     axes = _sweep_axes(model, ident)
     x = next(iter(axes))
     table = derivatives(model, axes, reference=ref, wrt=list(model.variables))
@@ -54,7 +48,7 @@ def _fig_derivatives(r, c: str, model, ident, ref: dict) -> _Figure | None:
                   "that line, grey: for all")
 
 
-def _fig_derivative_maps(r, models: dict, ref: dict) -> _Figure | None:
+def _fig_derivative_maps(r, models: dict, ref: dict) -> Figure | None:
     both = {c: m for c, m in models.items() if {"alpha", "mach"} <= set(m.variables)}
     if not both:
         return None
@@ -75,9 +69,10 @@ def _fig_derivative_maps(r, models: dict, ref: dict) -> _Figure | None:
                   "grey: outside the model's domain")
 
 
-def _derivative_section(models: dict, ident, H: list, M: list, slot) -> None:
+def _derivative_section(models: dict, ident, slot) -> list:
     """The 'Stability and control derivatives' section: a table at the reference
-    condition and figures across the envelope."""
+    condition and figures across the envelope (blocks of
+    :mod:`~simplexspline.aero.report.document`; ``slot`` queues a figure)."""
     ref = reference_conditions(models, ident)
     at_ref = derivatives(models, None, reference=ref)
     rows = []
@@ -98,13 +93,9 @@ def _derivative_section(models: dict, ident, H: list, M: list, slot) -> None:
             f"condition (identification-data medians): {cond}. docs/derivatives.md; "
             "'simplexspline derivatives OUTDIR' writes them as a table.")
     head = ["coefficient", "derivative", "at the reference", "unit", "note"]
-    H.append('<h2 id="derivatives">Stability and control derivatives</h2>')
-    H.append(f"<p>{_esc(text)}</p>")
-    H.append(_html_table(head, rows, left=(0, 1, 3, 4)))
-    M += ["## Stability and control derivatives", "", _md_text(text), "",
-          _md_table(head, rows), ""]
-    figs = [slot(f"{c} derivatives", _fig_derivatives, c, m, ident, ref)
-            for c, m in models.items()]
-    figs.append(slot("derivative maps", _fig_derivative_maps, models, ref))
-    H += figs
-    M += figs
+    return [Heading(2, "Stability and control derivatives", "derivatives"),
+            Paragraph(text),
+            Table(head, rows, left=(0, 1, 3, 4)),
+            *(slot(f"{c} derivatives", _fig_derivatives, c, m, ident, ref)
+              for c, m in models.items()),
+            slot("derivative maps", _fig_derivative_maps, models, ref)]

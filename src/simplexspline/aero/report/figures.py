@@ -7,7 +7,7 @@ series of measured vs model output and the error (Fig. 13-21), the residual
 autocorrelation with the identification samples per simplex, and the triangulation
 projected on two variables over the data. Each ``_fig_*`` function takes the
 :class:`~simplexspline.aero.report.render._Renderer` first and returns a
-:class:`~simplexspline.aero.report.render._Figure`, or None when there is nothing to show.
+:class:`~simplexspline.aero.report.document.Figure`, or None when there is nothing to show.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from itertools import combinations
 import numpy as np
 
 from simplexspline.aero.report.markup import _NAMES, _column, _disp, _fmt, _label, _unit
-from simplexspline.aero.report.render import _Figure
+from simplexspline.aero.report.document import Figure
 
 #: Most points drawn in a scatter / along a time series line.
 _MAX_SCATTER = 4000
@@ -44,7 +44,7 @@ def _varies(df, name: str) -> bool:
     return v is not None and len(v) > 1 and bool(np.all(np.isfinite(v))) and np.ptp(v) > 0
 
 
-def _fig_projections(r, ident, valid) -> _Figure | None:
+def _fig_projections(r, ident, valid) -> Figure | None:
     from scipy.spatial import ConvexHull, QhullError
 
     pairs = [p for p in _PROJECTIONS if _varies(ident, p[0]) and _varies(ident, p[1])][:6]
@@ -80,7 +80,7 @@ def _fig_projections(r, ident, valid) -> _Figure | None:
                   "validation data (orange) with the convex hull of the identification data")
 
 
-def _fig_projection_3d(r, ident) -> _Figure | None:
+def _fig_projection_3d(r, ident) -> Figure | None:
     from scipy.spatial import ConvexHull, QhullError
 
     names = [v for v in ("alpha", "de", "mach", "beta", "qhat") if _varies(ident, v)][:3]
@@ -110,7 +110,7 @@ def _fig_projection_3d(r, ident) -> _Figure | None:
                   f"({', '.join(names)}) with its convex hull ({len(hull.simplices)} facets)")
 
 
-def _fig_time_history(r, df, maneuver, mtype: str, index: int) -> _Figure:
+def _fig_time_history(r, df, maneuver, mtype: str, index: int) -> Figure:
     sel = df["maneuver"].to_numpy() == maneuver
     part = df.loc[sel]
     t = _column(part, "t")
@@ -139,7 +139,7 @@ def _fig_time_history(r, df, maneuver, mtype: str, index: int) -> _Figure:
                   "control inputs, response and moment coefficients")
 
 
-def _fig_selection(r, c: str, history: list) -> _Figure | None:
+def _fig_selection(r, c: str, history: list) -> Figure | None:
     scores = np.array([float(t.score) for t in history])
     if not np.any(np.isfinite(scores)):
         return None
@@ -183,7 +183,7 @@ def _slice_values(model, ident, var: str, k: int = 3) -> np.ndarray:
     return lo + (hi - lo) * np.linspace(0.15, 0.85, k)
 
 
-def _fig_slices(r, c: str, model, ident) -> _Figure:
+def _fig_slices(r, c: str, model, ident) -> Figure:
     names = list(model.variables)
     n = len(names)
     medians = {v: float(np.median(_column(ident, v))) if _column(ident, v) is not None
@@ -280,7 +280,7 @@ def _pick_maneuvers(valid, c: str, k: int = 2) -> list:
     return [(ids[i], str(types[i])) for i in chosen]
 
 
-def _fig_validation(r, c: str, valid, model, truth: bool) -> _Figure:
+def _fig_validation(r, c: str, valid, model, truth: bool) -> Figure:
     picks = _pick_maneuvers(valid, c)
     fig = r.new(4.2 * len(picks), 4.6, left=0.8, top=0.3, wspace=0.25, hspace=0.12)
     axes = np.atleast_2d(fig.subplots(2, len(picks), sharex="col",
@@ -323,7 +323,7 @@ def _fig_validation(r, c: str, valid, model, truth: bool) -> _Figure:
                   f"on validation maneuvers (top) and the error (bottom)")
 
 
-def _fig_diagnostics(r, c: str, res, thin_limit: float) -> _Figure:
+def _fig_diagnostics(r, c: str, res, thin_limit: float) -> Figure:
     from matplotlib.ticker import NullLocator
 
     v = res.validation
@@ -396,7 +396,7 @@ def projected_edges(points: np.ndarray, simplices: np.ndarray) -> np.ndarray:
     return seg[np.any(seg[:, 0] != seg[:, 1], axis=1)]
 
 
-def _fig_triangulation(r, c: str, model, ident, thin) -> _Figure | None:
+def _fig_triangulation(r, c: str, model, ident, thin) -> Figure | None:
     from matplotlib.collections import LineCollection
 
     names = list(model.schedule)

@@ -34,25 +34,29 @@ def _esc(value) -> str:
 
 def _md(value) -> str:
     """Text for a Markdown table cell (no HTML, no pipes, one line)."""
-    return _md_text(value).replace("|", "\\|").replace("\n", " ")
+    return _md_text(value).replace("|", "\\|")
 
 
 #: Characters that would make Markdown syntax out of data (code spans, emphasis, links).
 _MD_SYNTAX = re.compile(r"([\\`*_\[\]])")
 
+#: Line breaks of CommonMark (and the Unicode ones Python's splitlines knows).
+_LINE_BREAKS = re.compile(r"[\r\n\v\f\x1c-\x1e\x85\u2028\u2029]+")
+
 
 def _md_text(value) -> str:
-    """Text for a Markdown paragraph: no raw HTML (``&`` and ``<`` as entities) and no
-    Markdown syntax from data (backslash, backtick, ``*``, ``_``, ``[``, ``]`` escaped), so
-    a hostile variable name renders as the text it is."""
-    text = str(value).replace("&", "&amp;").replace("<", "&lt;")
+    """Text for a Markdown paragraph: no raw HTML (``&`` and ``<`` as entities), no
+    Markdown syntax from data (backslash, backtick, ``*``, ``_``, ``[``, ``]`` escaped) and
+    no line break (one space: a paragraph reflows anyway, and a new line could start a
+    heading, list or quote), so a hostile variable name renders as the text it is."""
+    text = _LINE_BREAKS.sub(" ", str(value)).replace("&", "&amp;").replace("<", "&lt;")
     return _MD_SYNTAX.sub(r"\\\1", text)
 
 
 def _md_code(value) -> str:
     """``value`` as one Markdown code span whose fence is longer than any run of backticks
     inside it (CommonMark), so data cannot close the span early."""
-    text = str(value).replace("\n", " ")
+    text = _LINE_BREAKS.sub(" ", str(value))
     run = max((len(m) for m in re.findall(r"`+", text)), default=0)
     fence = "`" * (run + 1)
     pad = " " if run else ""
@@ -103,28 +107,3 @@ def _column(df, name: str) -> np.ndarray | None:
 def _cell(x) -> tuple[str, str]:
     """(text, css class) of a table cell given as text or (text, class)."""
     return (str(x[0]), x[1]) if isinstance(x, tuple) else (str(x), "")
-
-
-def _html_table(head: list, rows: list, *, left: tuple = (), classes: list | None = None) -> str:
-    def cls(*names) -> str:
-        names = " ".join(n for n in names if n)
-        return f' class="{names}"' if names else ""
-
-    out = ["<table><thead><tr>"]
-    out += [f"<th{cls('l' if i in left else '')}>{_esc(h)}</th>" for i, h in enumerate(head)]
-    out.append("</tr></thead><tbody>")
-    for k, row in enumerate(rows):
-        out.append(f"<tr{cls(classes[k] if classes else '')}>")
-        for i, x in enumerate(row):
-            text, c = _cell(x)
-            out.append(f"<td{cls('l' if i in left else '', c)}>{_esc(text)}</td>")
-        out.append("</tr>")
-    out.append("</tbody></table>")
-    return "".join(out)
-
-
-def _md_table(head: list, rows: list) -> str:
-    lines = ["| " + " | ".join(_md(h) for h in head) + " |",
-             "|" + "|".join("---" for _ in head) + "|"]
-    lines += ["| " + " | ".join(_md(_cell(x)[0]) for x in row) + " |" for row in rows]
-    return "\n".join(lines)

@@ -22,9 +22,11 @@ other file; ``report.md`` links the copies in ``figures/``.
 
 The pieces live next to this module: the figures in :mod:`~simplexspline.aero.report.figures`
 and :mod:`~simplexspline.aero.report.derivative_section` (with the derivatives section), their
-rendering to PNG in :mod:`~simplexspline.aero.report.render`, and the shared units, labels,
-number formatting and tables in :mod:`~simplexspline.aero.report.markup`. This module
-assembles the HTML and Markdown documents.
+rendering to PNG in :mod:`~simplexspline.aero.report.render`, the shared units, labels,
+number formatting and escaping in :mod:`~simplexspline.aero.report.markup`, and the document
+model with its HTML and Markdown renderers in :mod:`~simplexspline.aero.report.document`.
+This module builds the document one section at a time (run, validation table, flight
+data, one section per coefficient, derivatives) and writes both files from it.
 """
 
 from __future__ import annotations
@@ -51,19 +53,25 @@ from simplexspline.aero.report.figures import (
     _fig_triangulation,
     _fig_validation,
 )
-from simplexspline.aero.report.markup import (
-    _md_code,
-    _column,
-    _esc,
-    _fmt,
-    _html_table,
-    _md_table,
-    _md_text,
-    _pct,
-    _unit,
+from simplexspline.aero.report.document import (
+    Alert,
+    BulletList,
+    Code,
+    CodeSpan,
+    Emph,
+    Footer,
+    Heading,
+    Nav,
+    Paragraph,
+    Strong,
+    Table,
+    to_html,
+    to_markdown,
 )
+from simplexspline.aero.report.markup import _column, _fmt, _pct, _unit
 from simplexspline.aero.report.render import _render, _Renderer
 from simplexspline.aero.selection.validation import PAPER_TABLE2
+from simplexspline._files import write_text
 
 __all__ = ["write_report"]
 
@@ -90,13 +98,6 @@ def _plain(df):
     return out
 
 
-def _write_text(path: Path, text: str) -> None:
-    """Write a text file whole (temporary file + rename)."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-
-
 def _short_json(value, limit: int = 4000) -> str:
     try:
         text = json.dumps(value, indent=1, default=str, allow_nan=True)
@@ -121,9 +122,9 @@ def _maneuver_types(df) -> dict:
     return out
 
 
-@dataclass
-class _Slot:
-    """Place of a figure in the page, filled once the figures are rendered."""
+@dataclass(frozen=True)
+class _Pending:
+    """Place of a figure in the document, filled once the figures are rendered."""
 
     index: int
 
@@ -243,6 +244,151 @@ def _reconstruction_lines(ident_obj) -> list:
     return lines
 
 
+# ---------------------------------------------------------------------------- sections
+#: A figure of a section, queued for rendering: ``slot(label, figure function, *args)``
+#: returns the placeholder block that the rendered :class:`Figure` replaces.
+Slot = Callable[..., "_Pending"]
+
+
+def _header_section(identification, ident, valid, types: dict) -> list:
+    """Title, navigation and the run: data, provenance, reconstruction, metadata,
+    settings and warnings."""
+    meta = dict(identification.metadata or {})
+    prov = dict(identification.provenance or {})
+    settings = identification.settings
+    aircraft = meta.get("aircraft") or "unknown aircraft"
+    n_id, n_va = int(ident["maneuver"].nunique()), int(valid["maneuver"].nunique())
+    vtypes = _maneuver_types(valid)
+    data_rows = [["identification", f"{n_id}", f"{len(ident):,}"],
+                 ["validation", f"{n_va}", f"{len(valid):,}"]]
+    type_rows = [[t, str(len(types.get(t, []))), str(len(vtypes.get(t, [])))]
+                 for t in sorted(set(types) | set(vtypes))]
+    prov_rows = [[k, str(v)] for k, v in prov.items()
+                 if k != "reconstruction" and not isinstance(v, (dict, list))]
+    short_meta, long_meta = _metadata_items(meta)
+    rec_lines = _reconstruction_lines(identification)
+    settings_dict = settings.to_dict() if hasattr(settings, "to_dict") else {}
+    warnings = list(identification.warnings)
+
+    out: list = [Heading(1, _title(identification)),
+                 Nav([("table", "validation table"), ("data", "data")]
+                     + [(f"coef-{c}", c) for c in identification.results]
+                     + [("derivatives", "derivatives")]),
+                 Heading(2, "Run", "header", only="html"),
+                 Heading(3, "Data", only="html"),
+                 Table(["set", "maneuvers", "samples"], data_rows, left=(0,), only="html")]
+    if type_rows:
+        out.append(Table(["maneuver type", "identification", "validation"], type_rows,
+                         left=(0,), only="html"))
+    out += [Heading(3, "Provenance", only="html"),
+            Table(["key", "value"], prov_rows, left=(0, 1), only="html")]
+    if rec_lines:
+        out += [Heading(3, "Reconstruction", only="html"),
+                Code("\n".join(rec_lines), only="html")]
+    out += [Heading(3, "Metadata", only="html"),
+            Table(["key", "value"], short_meta, left=(0, 1), only="html")]
+    out += [Code(_short_json(v), summary=f"{k} ({_describe(v)})", only="html")
+            for k, v in long_meta]
+    out += [Heading(3, "Settings", only="html"),
+            Code(_short_json(settings_dict, 20000), summary="identification settings",
+                 only="html")]
+    if warnings:
+        out += [Heading(3, "Warnings", only="html")] + [Alert(w, only="html")
+                                                          for w in warnings]
+
+    # the Markdown summary of the run
+    out.append(Paragraph(["Aircraft: ", Strong(str(aircraft)),
+                          f". Identification: {n_id} maneuvers ({len(ident):,} samples); "
+                          f"validation: {n_va} maneuvers ({len(valid):,} samples)."],
+                         only="md"))
+    if prov_rows:
+        out.append(BulletList([f"{k}: {v}" for k, v in prov_rows], only="md"))
+    if rec_lines:
+        out += [Paragraph("Reconstruction:", only="md"),
+                Code("\n".join(rec_lines), only="md")]
+    out.append(Paragraph("Settings:", only="md"))
+    if settings_dict:
+        out.append(BulletList([[f"{k}: ", CodeSpan(json.dumps(v, default=str)[:2000])]
+                               for k, v in settings_dict.items()], only="md"))
+    if warnings:
+        out += [Paragraph("Warnings:", only="md"), BulletList(warnings, only="md")]
+    return out
+
+
+def _table_section(identification) -> list:
+    """The validation table next to the paper's Table 2."""
+    head, rows = _rows_table2(identification)
+    truth = (" The truth columns compare the model with the true (simulated) coefficients; ",
+             Emph("noise RMS"), " is the RMS of measured - true.") \
+        if identification.has_truth else ()
+    intro = ["Scores of each model on the held-out validation maneuvers. Relative RMS is "
+             "RMS / (max - min) of the measured coefficient (the paper's Eq. 55 with the "
+             "square root); ", Emph("paper"), " is the Cessna Citation II result of the "
+             "paper's Table 2.", *truth,
+             " Green: better than the paper / below the measurement noise; red: not."]
+    return [Heading(2, "Validation (Table 2 style)", "table"),
+            Paragraph(intro, only="html"),
+            Table(head, rows, left=(0, 1)),
+            Code(identification.table(), summary="plain text", only="html")]
+
+
+def _data_section(ident, valid, types: dict, slot: Slot) -> list:
+    """The identification data's projections and one example maneuver of each type."""
+    out = [Heading(2, "Flight data", "data"),
+           slot("data projections", _fig_projections, ident, valid),
+           slot("3-D data projection", _fig_projection_3d, ident)]
+    for i, (mtype, ids) in enumerate(types.items()):
+        out.append(slot(f"{mtype} time history", _fig_time_history, ident,
+                        ids[len(ids) // 2], mtype, i))
+    return out
+
+
+def _coefficient_section(c: str, res, identification, ident, valid, slot: Slot) -> list:
+    """One coefficient: its model, structure selection, slices, validation, diagnostics
+    and triangulation."""
+    model = res.model
+    s = model.structure
+    v = res.validation
+    summary = (f"degree {s.degree}, continuity C^{s.continuity}, "
+               f"{model.spline.triangulation.nsimplex} simplices, "
+               f"{int(np.asarray(model.spline.coefficients).size)} B-coefficients, "
+               f"{s.ncoef_per_simplex} per simplex; fitted in {_fmt(res.seconds, '.1f')} s. "
+               f"Validation: RMS {_fmt(v.get('rms'), '.3e')}, relative RMS "
+               f"{_pct(v.get('rrms'))}, R² {_fmt(v.get('r2'), '.4f')}, bias "
+               f"{_fmt(v.get('bias'), '.2e')}, max |error| {_fmt(v.get('max_abs'), '.2e')}"
+               + (f"; against the truth: RMS {_fmt(v.get('rms_true'), '.3e')} (measurement"
+                  f" noise RMS {_fmt(v.get('noise_rms'), '.3e')})" if "rms_true" in v
+                  else "") + ".")
+    shead, srows = _structure_rows(res, ident)
+    mine = [w for w in identification.warnings if w.startswith(f"{c}:")]
+    if len(res.thin) and not mine:
+        mine = [f"{c}: {len(res.thin)} thinly covered simplices"]
+    out = [Heading(2, f"{c}: {s.label()}", f"coef-{c}"),
+           Paragraph(summary),
+           Table(shead, srows, left=(0, 1)),
+           *(Alert(w) for w in mine),
+           Heading(3, "Structure selection")]
+    if len(res.history) <= 1 and not any(np.isfinite(float(t.score)) for t in res.history):
+        out.append(Paragraph("Structure fixed (automatic selection off)."))
+    hhead, hrows, hclasses = _history_rows(res.history)
+    truth = bool(identification.has_truth) and f"true_{c}" in valid.columns
+    thin_factor = float(getattr(identification.settings, "thin_factor", 2.0))
+    out += [Table(hhead, hrows, left=(2, 3, 9), classes=hclasses),
+            slot(f"{c} selection history", _fig_selection, c, res.history),
+            Heading(3, "Model and validation"),
+            slot(f"{c} slices", _fig_slices, c, model, ident),
+            slot(f"{c} validation", _fig_validation, c, valid, model, truth),
+            slot(f"{c} diagnostics", _fig_diagnostics, c, res,
+                 thin_factor * s.ncoef_per_simplex),
+            slot(f"{c} triangulation", _fig_triangulation, c, model, ident, res.thin)]
+    return out
+
+
+def _title(identification) -> str:
+    aircraft = (identification.metadata or {}).get("aircraft") or "unknown aircraft"
+    return f"Aerodynamic model identification: {aircraft}"
+
+
 # ---------------------------------------------------------------------------- main
 def write_report(identification, outdir, *, progress: Callable[[str], None] | None = None,
                  workers: int | None = None) -> Path:
@@ -270,194 +416,46 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
     ``report.html`` is self-contained: its figures are PNG images embedded as base64 data
     URIs and its style sheet is inline. ``report.md`` links the same figures in
     ``outdir/figures``. Scatter plots and long time series are subsampled so that a report
-    for six coefficients takes a few seconds.
+    for six coefficients takes a few seconds. Both files are rendered from one list of
+    blocks (:mod:`~simplexspline.aero.report.document`), one section at a time.
     """
     t0 = time.perf_counter()
     say = progress or (lambda _msg: None)
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
-    r = _Renderer
     if workers is None:
         workers = min(2, os.cpu_count() or 1)
     jobs: list = []
 
-    def slot(label: str, fn: Callable, *args) -> _Slot:
-        jobs.append((label, partial(fn, r, *args)))
-        return _Slot(len(jobs) - 1)
+    def slot(label: str, fn: Callable, *args) -> _Pending:
+        jobs.append((label, partial(fn, _Renderer, *args)))
+        return _Pending(len(jobs) - 1)
 
-    res_all = identification.results
     ident = _plain(identification.identification)
     valid = _plain(identification.validation)
-    meta = dict(identification.metadata or {})
-    prov = dict(identification.provenance or {})
-    settings = identification.settings
-    truth = bool(identification.has_truth)
-    aircraft = meta.get("aircraft") or "unknown aircraft"
-    title = f"Aerodynamic model identification: {aircraft}"
-    thin_factor = float(getattr(settings, "thin_factor", 2.0))
-
-    H: list = []   # html body parts
-    M: list = []   # markdown lines
-
-    # ---------------------------------------------------------------- header
-    n_id, n_va = int(ident["maneuver"].nunique()), int(valid["maneuver"].nunique())
     types = _maneuver_types(ident)
-    vtypes = _maneuver_types(valid)
-    data_rows = [["identification", f"{n_id}", f"{len(ident):,}"],
-                 ["validation", f"{n_va}", f"{len(valid):,}"]]
-    type_rows = [[t, str(len(types.get(t, []))), str(len(vtypes.get(t, [])))]
-                 for t in sorted(set(types) | set(vtypes))]
-    prov_rows = [[k, str(v)] for k, v in prov.items()
-                 if k != "reconstruction" and not isinstance(v, (dict, list))]
-    short_meta, long_meta = _metadata_items(meta)
-    rec_lines = _reconstruction_lines(identification)
-    H.append(f"<h1>{_esc(title)}</h1>")
-    nav = ['<a href="#table">validation table</a>', '<a href="#data">data</a>']
-    nav += [f'<a href="#coef-{_esc(c)}">{_esc(c)}</a>' for c in res_all]
-    nav.append('<a href="#derivatives">derivatives</a>')
-    H.append("<nav>" + " ".join(nav) + "</nav>")
-    H.append("<h2 id=\"header\">Run</h2>")
-    H.append("<h3>Data</h3>" + _html_table(["set", "maneuvers", "samples"], data_rows,
-                                           left=(0,)))
-    if type_rows:
-        H.append(_html_table(["maneuver type", "identification", "validation"], type_rows,
-                             left=(0,)))
-    H.append("<h3>Provenance</h3>" + _html_table(["key", "value"], prov_rows, left=(0, 1)))
-    if rec_lines:
-        H.append("<h3>Reconstruction</h3><pre>" + _esc("\n".join(rec_lines)) + "</pre>")
-    H.append("<h3>Metadata</h3>" + _html_table(["key", "value"], short_meta, left=(0, 1)))
-    for k, v in long_meta:
-        H.append(f"<details><summary>{_esc(k)} ({_esc(_describe(v))})</summary><pre>"
-                 f"{_esc(_short_json(v))}</pre></details>")
-    settings_dict = settings.to_dict() if hasattr(settings, "to_dict") else {}
-    H.append("<h3>Settings</h3><details><summary>identification settings</summary><pre>"
-             f"{_esc(_short_json(settings_dict, 20000))}</pre></details>")
-    if identification.warnings:
-        H.append("<h3>Warnings</h3>" + "".join(f'<div class="warn">{_esc(w)}</div>'
-                                                 for w in identification.warnings))
+    blocks = _header_section(identification, ident, valid, types)
+    blocks += _table_section(identification)
+    blocks += _data_section(ident, valid, types, slot)
+    for c, res in identification.results.items():
+        blocks += _coefficient_section(c, res, identification, ident, valid, slot)
+    blocks += _derivative_section({c: res.model for c, res in identification.results.items()},
+                                  ident, slot)
 
-    M += [f"# {_md_text(title)}", "",
-          (f"Aircraft: **{_md_text(aircraft)}**. Identification: {n_id} maneuvers "
-          f"({len(ident):,} samples); validation: {n_va} maneuvers ({len(valid):,} samples)."),
-          ""]
-    M += [f"- {_md_text(k)}: {_md_text(v)}" for k, v in prov_rows]
-    if rec_lines:
-        M += ["", "Reconstruction:", "", "```", *rec_lines, "```"]
-    M += ["", "Settings:", ""]
-    M += [f"- {_md_text(k)}: {_md_code(json.dumps(v, default=str)[:2000])}"
-          for k, v in settings_dict.items()] + [""]
-    if identification.warnings:
-        M += ["Warnings:", ""] + [f"- {_md_text(w)}" for w in identification.warnings] + [""]
-
-    # ---------------------------------------------------------------- table 2
-    head, rows = _rows_table2(identification)
-    H.append('<h2 id="table">Validation (Table 2 style)</h2>')
-    H.append("<p>Scores of each model on the held-out validation maneuvers. Relative RMS is "
-             "RMS / (max - min) of the measured coefficient (the paper's Eq. 55 with the "
-             "square root); <em>paper</em> is the Cessna Citation II result of the paper's "
-             "Table 2." + (" The truth columns compare the model with the true "
-                           "(simulated) coefficients; <em>noise RMS</em> is the RMS of "
-                           "measured - true." if truth else "")
-             + " Green: better than the paper / below the measurement noise; red: not.</p>")
-    H.append(_html_table(head, rows, left=(0, 1)))
-    H.append("<details><summary>plain text</summary><pre>" + _esc(identification.table())
-             + "</pre></details>")
-    M += ["## Validation (Table 2 style)", "", _md_table(head, rows), ""]
-
-    # ---------------------------------------------------------------- data
-    H.append('<h2 id="data">Flight data</h2>')
-    M += ["## Flight data", ""]
-    figs = [slot("data projections", _fig_projections, ident, valid),
-            slot("3-D data projection", _fig_projection_3d, ident)]
-    for i, (mtype, ids) in enumerate(types.items()):
-        figs.append(slot(f"{mtype} time history", _fig_time_history, ident,
-                         ids[len(ids) // 2], mtype, i))
-    H += figs
-    M += figs
-
-    # ---------------------------------------------------------------- coefficients
-    for c, res in res_all.items():
-        model = res.model
-        s = model.structure
-        v = res.validation
-        H.append(f'<h2 id="coef-{_esc(c)}">{_esc(c)}: {_esc(s.label())}</h2>')
-        M += [f"## {_md_text(c)}: {_md_text(s.label())}", ""]
-        summary = (f"degree {s.degree}, continuity C^{s.continuity}, "
-                   f"{model.spline.triangulation.nsimplex} simplices, "
-                   f"{int(np.asarray(model.spline.coefficients).size)} B-coefficients, "
-                   f"{s.ncoef_per_simplex} per simplex; fitted in {_fmt(res.seconds, '.1f')} s. "
-                   f"Validation: RMS {_fmt(v.get('rms'), '.3e')}, relative RMS "
-                   f"{_pct(v.get('rrms'))}, R² {_fmt(v.get('r2'), '.4f')}, bias "
-                   f"{_fmt(v.get('bias'), '.2e')}, max |error| {_fmt(v.get('max_abs'), '.2e')}"
-                   + (f"; against the truth: RMS {_fmt(v.get('rms_true'), '.3e')} (measurement"
-                      f" noise RMS {_fmt(v.get('noise_rms'), '.3e')})" if "rms_true" in v
-                      else "") + ".")
-        H.append(f"<p>{_esc(summary)}</p>")
-        M += [_md_text(summary), ""]
-        shead, srows = _structure_rows(res, ident)
-        H.append(_html_table(shead, srows, left=(0, 1)))
-        M += [_md_table(shead, srows), ""]
-        mine = [w for w in identification.warnings if w.startswith(f"{c}:")]
-        if len(res.thin) and not mine:
-            mine = [f"{c}: {len(res.thin)} thinly covered simplices"]
-        H += [f'<div class="warn">{_esc(w)}</div>' for w in mine]
-        M += [f"> **Warning:** {_md_text(w)}" for w in mine] + ([""] if mine else [])
-
-        hhead, hrows, hclasses = _history_rows(res.history)
-        H.append("<h3>Structure selection</h3>")
-        M += ["### Structure selection", ""]
-        if len(res.history) <= 1 and not any(np.isfinite(float(t.score))
-                                             for t in res.history):
-            note = "Structure fixed (automatic selection off)."
-            H.append(f"<p>{_esc(note)}</p>")
-            M += [note, ""]
-        H.append(_html_table(hhead, hrows, left=(2, 3, 9), classes=hclasses))
-        M += [_md_table(hhead, hrows), ""]
-        sel = slot(f"{c} selection history", _fig_selection, c, res.history)
-        H.append(sel)
-        M.append(sel)
-        H.append("<h3>Model and validation</h3>")
-        M += ["### Model and validation", ""]
-        figs = [slot(f"{c} slices", _fig_slices, c, model, ident),
-                slot(f"{c} validation", _fig_validation, c, valid, model,
-                     truth and f"true_{c}" in valid.columns),
-                slot(f"{c} diagnostics", _fig_diagnostics, c, res, thin_factor * s.ncoef_per_simplex),
-                slot(f"{c} triangulation", _fig_triangulation, c, model, ident, res.thin)]
-        H += figs
-        M += figs
-
-    # ---------------------------------------------------------------- derivatives
-    _derivative_section({c: res.model for c, res in res_all.items()}, ident, H, M, slot)
-
-    # ---------------------------------------------------------------- render
     rendered = _render(jobs, workers, say)
     (outdir / "figures").mkdir(exist_ok=True)
     for f in rendered:
         if f is not None:
             (outdir / "figures" / f"{f.name}.png").write_bytes(f.png)
     count = sum(f is not None for f in rendered)
-
-    def fill(part, kind: str):
-        if not isinstance(part, _Slot):
-            return part
-        f = rendered[part.index]
-        if f is None:
-            return ""
-        return f.html() if kind == "html" else f.md() + "\n"
-
-    H = [fill(x, "html") for x in H]
-    M = [fill(x, "md") for x in M]
+    blocks = [rendered[b.index] if isinstance(b, _Pending) else b for b in blocks]
+    blocks = [b for b in blocks if b is not None]
 
     seconds = time.perf_counter() - t0
-    foot = (f"Written by {prov.get('software', 'simplexspline')} in {seconds:.1f} s, "
-            f"{count} figures.")
-    H.append(f"<hr><p><small>{_esc(foot)}</small></p>")
-    M += ["---", foot, ""]
-    page = ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<title>{_esc(title)}</title><style>{_CSS}</style></head><body>\n"
-            + "\n".join(H) + "\n</body></html>\n")
+    software = (identification.provenance or {}).get("software", "simplexspline")
+    blocks.append(Footer(f"Written by {software} in {seconds:.1f} s, {count} figures."))
     path = outdir / "report.html"
-    _write_text(path, page)
-    _write_text(outdir / "report.md", "\n".join(M))
+    write_text(path, to_html(blocks, title=_title(identification), css=_CSS))
+    write_text(outdir / "report.md", to_markdown(blocks))
     say(f"report: {count} figures in {seconds:.1f} s")
     return path

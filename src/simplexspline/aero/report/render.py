@@ -1,43 +1,21 @@
 """Rendering the identification report's figures to PNG images.
 
-:class:`_Figure` is one rendered figure (its PNG bytes and caption, written as an HTML
-``<figure>`` with a base64 data URI or as a Markdown image link to ``figures/``),
 :class:`_Renderer` makes matplotlib figures with the object API (no pyplot, so the
-caller's backend is left alone) and saves them as PNG, and :func:`_render` runs the
-report's figure jobs, in forked worker processes where the platform has ``fork``.
+caller's backend is left alone) and saves them as PNG, each a
+:class:`~simplexspline.aero.report.document.Figure` block; :func:`_render` runs the report's
+figure jobs, in forked worker processes where the platform has ``fork``.
 """
 
 from __future__ import annotations
 
-import base64
 import io
 from collections.abc import Callable
-from dataclasses import dataclass
 
 from simplexspline._workers import ignore_interrupts
-from simplexspline.aero.report.markup import _esc, _md
+from simplexspline.aero.report.document import Figure
 
 #: Dots per inch of the PNG figures.
 DPI = 90
-
-
-@dataclass
-class _Figure:
-    name: str
-    caption: str
-    png: bytes
-
-    @property
-    def path(self) -> str:
-        return f"figures/{self.name}.png"
-
-    def html(self) -> str:
-        data = base64.b64encode(self.png).decode("ascii")
-        return (f'<figure><img alt="{_esc(self.caption)}" src="data:image/png;base64,{data}">'
-                f"<figcaption>{_esc(self.caption)}</figcaption></figure>")
-
-    def md(self) -> str:
-        return f"![{_md(self.caption)}]({self.path})"
 
 
 class _Renderer:
@@ -56,10 +34,10 @@ class _Renderer:
         return Figure(figsize=(width, height), dpi=DPI, subplotpars=pars)
 
     @staticmethod
-    def save(fig, name: str, caption: str) -> _Figure:
+    def save(fig, name: str, caption: str) -> Figure:
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=DPI, pil_kwargs={"compress_level": 2})
-        return _Figure(name, caption, buf.getvalue())
+        return Figure(name, caption, buf.getvalue())
 
 
 #: Figure jobs of the report being written; set before forking the rendering workers,

@@ -40,13 +40,21 @@ def simplex_transforms(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
         Inverse edge matrices; rows of zeros (and ``inf`` never) for degenerate simplices.
     sine : ndarray, shape (J,)
         ``|det T| / prod |T[:, k]|``: 1 for an orthogonal corner, 0 for a flat simplex.
+        Computed as the determinant of the unit edge vectors, so it does not under- or
+        overflow at coordinate scales where ``det T`` would (1e-300 or 1e+300).
     """
     origin = corners[:, 0, :]
     edges = np.swapaxes(corners[:, 1:, :] - origin[:, None, :], 1, 2)  # (J, n, n) columns
-    det = np.linalg.det(edges) if len(edges) else np.empty(0)
-    norms = np.prod(np.linalg.norm(edges, axis=1), axis=1) if len(edges) else np.empty(0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sine = np.where(norms > 0, np.abs(det) / np.where(norms > 0, norms, 1.0), 0.0)
+    if len(edges):
+        lengths = np.max(np.abs(edges), axis=1, keepdims=True)       # no overflow in norms
+        with np.errstate(divide="ignore", invalid="ignore"):
+            unit = np.where(lengths > 0, edges / np.where(lengths > 0, lengths, 1.0), 0.0)
+            unit = unit / np.where(lengths > 0, np.linalg.norm(unit, axis=1, keepdims=True),
+                                   1.0)
+        sine = np.abs(np.linalg.det(unit))
+        sine[np.any(lengths[:, 0, :] == 0, axis=1) | ~np.isfinite(sine)] = 0.0
+    else:
+        sine = np.empty(0)
     tinv = np.zeros_like(edges)
     ok = sine > DEGENERACY_TOL
     if np.any(ok):

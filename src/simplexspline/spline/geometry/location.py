@@ -110,7 +110,9 @@ class BucketLocator:
         span = np.where(self.upper > self.lower, self.upper - self.lower, 1.0)
         # About two buckets per simplex, shaped like the bounding box.
         target = max(1.0, 2.0 * nsimp)
-        per_axis = span / np.prod(span) ** (1.0 / n) * target ** (1.0 / n)
+        # span / geometric mean of span, through logs: the product under- or overflows at
+        # coordinate scales like 1e-300 or 1e+300
+        per_axis = np.exp(np.log(span) - np.mean(np.log(span))) * target ** (1.0 / n)
         self.nb = np.clip(np.ceil(per_axis).astype(np.int64), 1, 1 << 20)
         self.width = span / self.nb
         blo = self._bucket_coords(lo)

@@ -377,9 +377,9 @@ class Triangulation:
         bj, bi = np.nonzero(self.neighbors < 0)
         if len(bj):
             fc = (corners[bj].sum(axis=1) - corners[bj, bi]) / n
-            scale = np.linalg.norm(fc - corners[bj, bi], axis=1)[:, None]
-            normal_step = (fc - corners[bj, bi]) / scale
-            outside = fc + 1e-7 * scale * normal_step
+            # a step of 1e-7 of the distance from the opposite vertex, away from it (no
+            # norm: it underflows at coordinates like 1e-300)
+            outside = fc + 1e-7 * (fc - corners[bj, bi])
             point, simplex = self._locator.containing(outside, tol=-1e-12)
             if len(point):
                 k = int(point[0])
