@@ -34,7 +34,8 @@ from simplexspline.sim.campaign import (
     FlightProtocol,
     simulate_campaign,
 )
-from simplexspline.sim.maneuvers import MANEUVER_FAMILIES, MANEUVER_TYPES
+from simplexspline.sim.maneuvers import EXCITATION_DESIGNS, MANEUVER_FAMILIES, MANEUVER_TYPES
+from simplexspline.sim.pilot import PilotStyle
 from simplexspline.sim.sensors import (
     DEFAULT_BIAS,
     DEFAULT_NOISE_STD,
@@ -46,6 +47,7 @@ __all__ = [
     "Campaign",
     "ConditionGrid",
     "FlightProtocol",
+    "PilotStyle",
     "simulate_campaign",
     "SensorModel",
     "Envelope",
@@ -61,5 +63,6 @@ __all__ = [
     "MEASURED_CHANNELS",
     "MANEUVER_FAMILIES",
     "MANEUVER_TYPES",
+    "EXCITATION_DESIGNS",
     "SURFACE_SIGN_CONVENTIONS",
 ]

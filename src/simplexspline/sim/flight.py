@@ -18,7 +18,8 @@ from simplexspline.sim import units as u
 from simplexspline.sim.aircraft import AircraftProfile, Envelope
 from simplexspline.sim.fdm import IDX, Recorder, quiet_scratch, trim_fdm
 from simplexspline.sim.maneuvers import LEAD_S, excitation
-from simplexspline.sim.pilot import Actuator, AircraftState, Pilot
+from simplexspline.sim.pilot import (Actuator, AircraftState, Airframe, Pilot, PilotStyle,
+                                     Turn)
 from simplexspline.sim.sensors import SensorModel
 
 __all__ = ["simulate_maneuver", "trim_condition", "DT"]
@@ -116,7 +117,8 @@ def simulate_maneuver(spec: dict) -> dict:
         ``index``, ``condition``, ``profile`` (dict), ``envelope`` (dict), ``sensors``
         (dict), ``design`` (dict from :func:`~simplexspline.sim.maneuvers.design_maneuver`),
         ``h_m``, ``tas_mps`` (jittered trim point), ``h_nominal``, ``tas_nominal``,
-        ``psi_rad``, ``fuel_fraction``, ``seed`` (int), ``min_kept_s``, ``pilot_delay_s``,
+        ``psi_rad``, ``fuel_fraction``, ``seed`` (int), ``min_kept_s``, ``pilot`` (dict of
+        :class:`~simplexspline.sim.pilot.PilotStyle`),
         optional ``scratch``.
 
     Returns
@@ -194,10 +196,8 @@ def _fly(fdm, profile: AircraftProfile, env: Envelope, design: dict, spec: dict,
         "phi": 0.7 * env.phi_max,
     }
     pilot = Pilot("pilot" if design["family"] == "sum-of-sines" else "autopilot", trim,
-                  profile.pilot_bandwidth, profile.sas_damping, profile.control_power,
-                  geometry, bank=design.get("bank", 0.0), bank_start_s=LEAD_S,
-                  protection=protection,
-                  delay_s=spec["pilot_delay_s"], dt=DT)
+                  Airframe.of(profile, geometry), style=PilotStyle(**spec["pilot"]),
+                  turn=Turn(design.get("bank", 0.0), LEAD_S), protection=protection, dt=DT)
     acts = [Actuator(d, sf.limit, sf.rate, sf.tau, DT)
             for d, sf in zip(trim_surf, profile.surfaces)]
     schedules = rec.schedule_writers
