@@ -125,6 +125,27 @@ def test_maneuvers_excite_the_intended_axis(ideal):
     assert {"3211-elevator", "3211-aileron", "3211-rudder", "sum-of-sines"} <= seen
 
 
+def _slope(df: pd.DataFrame, coefficient: str, regressors: list[str], of: str) -> float:
+    """Least-squares slope of ``coefficient`` on ``of`` with an intercept and ``regressors``."""
+    X = np.column_stack([np.ones(len(df))] + [df[c].to_numpy() for c in regressors + [of]])
+    return float(np.linalg.lstsq(X, df[f"true_{coefficient}"].to_numpy(), rcond=None)[0][-1])
+
+
+def test_coefficients_are_physically_sane(ideal):
+    """Lift up, drag-like CX, and each surface's moment with the documented sign."""
+    assert ideal["true_CZ"].median() < -0.05
+    assert ideal["true_CX"].median() < 0.02
+    v = ideal["tas"].to_numpy()
+    m = ideal.attrs
+    x = ideal.assign(phat=ideal["p"] * m["b"] / (2 * v), qhat=ideal["q"] * m["cbar"] / (2 * v),
+                     rhat=ideal["r"] * m["b"] / (2 * v))
+    kind = ideal["maneuver_type"].astype(str)
+    lat = ["beta", "phat", "rhat"]
+    assert _slope(x[kind == "3211-elevator"], "Cm", ["alpha", "qhat"], "de") < 0
+    assert _slope(x[kind == "3211-aileron"], "Cl", lat, "da") > 0
+    assert _slope(x[kind == "3211-rudder"], "Cn", lat, "dr") < 0
+
+
 def test_table_follows_the_schema(ideal):
     report = validate_flight_data(ideal, nan="raise")
     assert report.unknown_columns == [] and report.nan_gaps == []
@@ -350,7 +371,7 @@ def test_envelope_coverage_summarises_the_campaign(f16_ideal):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("aircraft", ["f16", "global5000"])
+@pytest.mark.parametrize("aircraft", ["f16", "global5000", "c172p", "A4"])
 def test_default_grid_campaign_stays_inside_and_covers(aircraft):
     """Forty maneuvers on the default grid: few cuts, Eq. 43-48 hold, wide coverage."""
     df = Campaign(aircraft, maneuvers=40, seed=3, sensors=SensorModel.ideal()).run(
@@ -360,8 +381,11 @@ def test_default_grid_campaign_stays_inside_and_covers(aircraft):
     for name, c in _eq43_48(df).items():
         assert np.max(np.abs(c - df[f"true_{name}"])) <= 1e-6
     cov = envelope_coverage(df)
-    assert cov.loc["alpha", "max"] - cov.loc["alpha", "min"] > 8.0
-    assert cov.loc["mach", "max"] - cov.loc["mach", "min"] > 0.3
+    prof = get_aircraft(aircraft)
+    alpha_span = math.degrees(prof.envelope.alpha_max - prof.envelope.alpha_min)
+    assert cov.loc["alpha", "max"] - cov.loc["alpha", "min"] > min(8.0, 0.3 * alpha_span)
+    speeds = prof.airspeeds_mps
+    assert cov.loc["tas", "max"] - cov.loc["tas", "min"] > 0.6 * (max(speeds) - min(speeds))
 
 
 def test_a_dying_worker_is_reported_as_a_simulation_error():

@@ -31,6 +31,18 @@ def test_simulate_quiet_csv(tmp_path, capsys):
     assert len(df) > 500 and meta["sample_rate_hz"] == 100.0
 
 
+def test_simulate_alternative_protocol_between_the_grid(tmp_path):
+    out = tmp_path / "c.parquet"
+    assert main(["simulate", "--aircraft", "c172p", "--maneuvers", "1", "--seed", "4",
+                 "--protocol", "alternative", "--conditions", "between", "--mix", "3211=1",
+                 "--workers", "1", "-q", "-o", str(out)]) == 0
+    df, meta = read_flight_data(out)
+    campaign = meta["simulator"]["campaign"]
+    assert campaign["design"] == "alternative" and campaign["pilot_style"]["delay_s"] == 0.35
+    assert campaign["airspeeds_mps"] == [41.0, 47.0, 53.0, 59.0]
+    assert df["maneuver_type"].astype(str).str.startswith("3211").all()
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--aircraft", "spitfire"], "unknown aircraft 'spitfire'"),
     (["--maneuvers", "0"], "argument --maneuvers: expected an integer >= 1, got '0'"),

@@ -10,7 +10,8 @@ from pathlib import Path
 from simplexspline.cli import arguments
 from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError
-from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
+from simplexspline.sim import (Campaign, ConditionGrid, FlightProtocol, SensorModel,
+                               available_aircraft)
 
 
 def _floats(text: str) -> list[float]:
@@ -46,7 +47,8 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "one table in the flight-data schema (docs/flight-data-schema.md). Needs the 'sim' "
         "extra: pip install 'simplexspline[sim]'.",
     )
-    p.add_argument("--aircraft", default="f16", help="aircraft profile: f16 or global5000 (f16)")
+    p.add_argument("--aircraft", default="f16",
+                   help=f"aircraft profile: {', '.join(available_aircraft())} (f16)")
     p.add_argument("--maneuvers", type=arguments.count, default=250,
                    help="number of maneuvers (250)")
     p.add_argument("--per-condition", type=arguments.count, default=None, metavar="N",
@@ -56,9 +58,17 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help="altitudes of the condition grid [m] (the aircraft's default grid)")
     p.add_argument("--airspeeds", type=_floats, default=None, metavar="V1,V2,...",
                    help="true airspeeds of the condition grid [m/s] (the aircraft's default)")
+    p.add_argument("--conditions", choices=("grid", "between"), default="grid",
+                   help="'between': the midpoints of the aircraft's default grid, conditions "
+                        "the project was not developed on (grid); --altitudes/--airspeeds win")
+    p.add_argument("--protocol", choices=("paper", "alternative"), default="paper",
+                   help="'alternative': 3211s and sum-of-sines of another excitation design "
+                        "(other pulse units and band, low-peak-factor multisines) flown by a "
+                        "relaxed pilot (paper)")
     p.add_argument("--mix", type=_mix, default=None, metavar="FAMILY=W,...",
                    help="relative frequency of 3211, doublet and sum-of-sines maneuvers "
-                        "(3211=0.45,doublet=0.2,sum-of-sines=0.35)")
+                        "(3211=0.45,doublet=0.2,sum-of-sines=0.35; alternative protocol: "
+                        "3211=0.5,sum-of-sines=0.5)")
     p.add_argument("--turn-fraction", type=arguments.share, default=0.5,
                    help="fraction of sum-of-sines maneuvers flown in a level turn instead of "
                         "straight and level (0.5)")
@@ -86,12 +96,17 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--noise-scale and --bias-scale must be non-negative")
     sensors = (SensorModel.ideal() if args.ideal_sensors
                else SensorModel().scaled(noise=args.noise_scale, bias=args.bias_scale))
+    grid = (ConditionGrid.between(args.aircraft) if args.conditions == "between"
+            else ConditionGrid())
+    grid = ConditionGrid(args.altitudes or grid.altitudes_m, args.airspeeds or grid.airspeeds_mps)
+    protocol = {"turn_fraction": args.turn_fraction}
+    if args.mix is not None:
+        protocol["mix"] = args.mix
+    protocol = (FlightProtocol.alternative(**protocol) if args.protocol == "alternative"
+                else FlightProtocol(**protocol))
     campaign = Campaign(args.aircraft, maneuvers=args.maneuvers,
                         maneuvers_per_condition=args.per_condition, seed=args.seed,
-                        grid=ConditionGrid(altitudes_m=args.altitudes,
-                                           airspeeds_mps=args.airspeeds),
-                        protocol=FlightProtocol(mix=args.mix, turn_fraction=args.turn_fraction),
-                        sensors=sensors)
+                        grid=grid, protocol=protocol, sensors=sensors)
     t0 = time.perf_counter()
     df = campaign.run(workers=args.workers,
                       progress=(not args.quiet) and sys.stderr.isatty())

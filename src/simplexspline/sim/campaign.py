@@ -104,6 +104,22 @@ class ConditionGrid:
             if values is not None:
                 object.__setattr__(self, name, tuple(_grid(values, name).tolist()))
 
+    @classmethod
+    def between(cls, aircraft: str | AircraftProfile, jitter: bool = True) -> ConditionGrid:
+        """The midpoints of the profile's default grid: conditions not used in development.
+
+        Examples
+        --------
+        >>> ConditionGrid.between("global5000").airspeeds_mps
+        (132.5, 157.5, 182.5, 207.5, 232.5)
+        """
+        profile = get_aircraft(aircraft)
+        mids = []
+        for values in (profile.altitudes_m, profile.airspeeds_mps):
+            a = np.sort(np.asarray(values, dtype=float))
+            mids.append(0.5 * (a[1:] + a[:-1]) if a.size > 1 else a)
+        return cls(mids[0].tolist(), mids[1].tolist(), jitter)
+
     def values(self, profile: AircraftProfile) -> tuple[np.ndarray, np.ndarray]:
         """Sorted altitudes (m,) [m] and airspeeds (k,) [m/s]; the profile's where not given."""
         return (_grid(profile.altitudes_m if self.altitudes_m is None else self.altitudes_m,

@@ -14,7 +14,7 @@ import sys
 import tempfile
 from collections.abc import Iterator
 
-from simplexspline.errors import SimulationError
+from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile
 from simplexspline.sim.units import FT, KT
 
@@ -116,6 +116,12 @@ def create_fdm(profile: AircraftProfile, fuel_fraction: float = 1.0):
     fdm.set_dt(0.01)
     for tank in profile.tanks:
         fdm[tank] = fdm[tank] * float(fuel_fraction)
+    pm = fdm.get_property_manager()
+    for name, value in profile.loading:
+        if not pm.hasNode(name):
+            raise InputError(f"{profile.name}: loading property {name!r} does not exist in "
+                                  f"model {profile.model!r}; fix the aircraft profile")
+        fdm[name] = float(value)
     return fdm
 
 
