@@ -13,9 +13,12 @@ from simplexspline.aero.data.flight_data import (
     FLIGHT_DATA_COLUMNS,
     REQUIRED_COLUMNS,
     SCHEMA_VERSION,
+    SENSOR_COLUMNS,
     FlightDataWarning,
     NanGap,
+    present_columns,
     read_flight_data,
+    sensor_geometry,
     sidecar_path,
     validate_flight_data,
     write_flight_data,
@@ -24,13 +27,13 @@ from simplexspline.errors import FlightDataError, InputError
 
 
 def make_data(rng: np.random.Generator, maneuvers: int = 3, n: int = 50) -> pd.DataFrame:
-    """A small table with every required column, plausible values and metadata."""
+    """A small table with every required and sensor column, plausible values, metadata."""
     rows = maneuvers * n
     df = pd.DataFrame({
         "maneuver": np.repeat(np.arange(maneuvers, dtype=np.int64), n),
         "t": np.tile(np.arange(n) * 0.01, maneuvers),
     })
-    for name in REQUIRED_COLUMNS:
+    for name in REQUIRED_COLUMNS + SENSOR_COLUMNS:
         if name in df:
             continue
         df[name] = rng.uniform(0.01, 0.2, rows)
@@ -208,10 +211,10 @@ def test_missing_metadata_key(rng):
 
 def test_unknown_columns_are_kept_and_listed(tmp_path, rng):
     df = make_data(rng)
-    df["fuel_flow"] = 1.0
-    assert validate_flight_data(df).unknown_columns == ["fuel_flow"]
+    df["oil_temperature"] = 1.0
+    assert validate_flight_data(df).unknown_columns == ["oil_temperature"]
     back, _ = read_flight_data(write_flight_data(df, tmp_path / "d.parquet"))
-    assert "fuel_flow" in back
+    assert "oil_temperature" in back
 
 
 def test_invalid_data_are_not_written(tmp_path, rng):
@@ -267,3 +270,57 @@ def test_invalid_nan_policy(rng):
 def test_not_a_dataframe():
     with pytest.raises(FlightDataError, match="must be a pandas DataFrame"):
         validate_flight_data({"t": [0.0]}, {"schema": SCHEMA_VERSION})
+
+
+@pytest.mark.parametrize("column", list(SENSOR_COLUMNS))
+def test_sensors_real_aircraft_lack_are_optional(rng, column):
+    df = make_data(rng).drop(columns=[column])
+    assert column not in REQUIRED_COLUMNS
+    assert validate_flight_data(df).nan_gaps == []
+
+
+def test_a_column_that_is_entirely_nan_counts_as_absent(rng):
+    df = make_data(rng)
+    df["beta"] = np.nan
+    df["vn_gps"] = np.nan
+    report = validate_flight_data(df, nan="raise")      # no gap: an empty channel is absent
+    assert report.empty_columns == ["beta", "vn_gps"] and report.nan_gaps == []
+    assert "beta" not in present_columns(df) and "alpha" in present_columns(df)
+    assert "maneuver_type" in present_columns(df)
+    df["alpha"] = np.nan
+    with pytest.raises(FlightDataError, match="required column 'alpha' is entirely NaN"):
+        validate_flight_data(df)
+
+
+def test_sensor_geometry_is_parsed_with_defaults(rng):
+    geo = sensor_geometry({"sensor_geometry": {
+        "alpha_vane": {"position_m": [5.2, 0, -0.3], "scale": 1.05, "offset_rad": 0.01},
+        "lag_s": {"alpha": 0.05}}})
+    assert geo.alpha_vane.position_m == (5.2, 0.0, -0.3) and geo.alpha_vane.scale == 1.05
+    assert geo.beta_vane.position_m == (0.0, 0.0, 0.0) and geo.beta_vane.scale == 1.0
+    assert geo.imu_position_m == (0.0, 0.0, 0.0) and geo.lag_s == {"alpha": 0.05}
+    assert geo.given == ("alpha_vane", "lag_s")
+    assert sensor_geometry({}).given == ()
+
+
+@pytest.mark.parametrize("geo, match", [
+    ({"pitot": {}}, "unknown key.*'pitot'"),
+    ({"alpha_vane": {"position_m": [5200, 0, 0]}}, "alpha_vane.position_m.*within 100 m"),
+    ({"imu": {"position_m": [1, 2]}}, "imu.position_m must be three"),
+    ({"beta_vane": {"scale": 0}}, "beta_vane.scale must be a finite positive"),
+    ({"lag_s": {"alpha": 50}}, "lag_s.alpha = 50 s is outside"),
+    ({"lag_s": {"fuel": 0.1}}, "unknown channel 'fuel'"),
+])
+def test_bad_sensor_geometry_is_named(rng, geo, match):
+    df = make_data(rng)
+    df.attrs["sensor_geometry"] = geo
+    with pytest.raises(FlightDataError, match=match):
+        validate_flight_data(df)
+
+
+def test_sensor_geometry_round_trips(tmp_path, rng):
+    df = make_data(rng)
+    df.attrs["sensor_geometry"] = {"imu": {"position_m": [0.5, 0.0, 0.1]},
+                                   "lag_s": {"tas": 0.1}}
+    _, meta = read_flight_data(write_flight_data(df, tmp_path / "d.parquet"))
+    assert sensor_geometry(meta).imu_position_m == (0.5, 0.0, 0.1)

@@ -36,6 +36,12 @@ __all__ = [
     "FlightDataReport",
     "NanGap",
     "FlightDataWarning",
+    "SENSOR_COLUMNS",
+    "LAG_CHANNELS",
+    "SensorGeometry",
+    "VaneCalibration",
+    "present_columns",
+    "sensor_geometry",
     "validate_flight_data",
     "read_flight_data",
     "write_flight_data",
@@ -72,7 +78,8 @@ class ColumnSpec:
 
 
 def _spec(rows, required: bool, kind: str = "float") -> dict:
-    return {n: ColumnSpec(n, unit, kind, required, d) for n, unit, d in rows}
+    return {n: ColumnSpec(n, unit, kind, required and n not in SENSOR_COLUMNS, d)
+            for n, unit, d in rows}
 
 
 _ID = [
@@ -89,7 +96,8 @@ _ID = [
     ("phi", "rad", "bank angle (Euler 3-2-1, right wing down positive)"),
     ("theta", "rad", "pitch attitude (Euler 3-2-1, nose up positive)"),
     ("psi", "rad", "heading (Euler 3-2-1, from true north, east positive), in [-pi, pi)"),
-    ("ax", "m/s^2", "specific force along body x at the c.g. (non-gravitational force/mass)"),
+    ("ax", "m/s^2", "specific force along body x (non-gravitational force/mass) at the c.g., "
+                    "or at metadata sensor_geometry.imu"),
     ("ay", "m/s^2", "specific force along body y at the c.g."),
     ("az", "m/s^2", "specific force along body z at the c.g. (about -g in level flight)"),
     ("de", "rad", "elevator deflection (sign convention in metadata 'sign_conventions')"),
@@ -121,7 +129,19 @@ _OPT = [
     ("vn_gps", "m/s", "GPS north velocity (Earth-relative)"),
     ("ve_gps", "m/s", "GPS east velocity"),
     ("vd_gps", "m/s", "GPS down velocity"),
+    ("wind_n", "m/s", "wind (air-mass velocity over the Earth) towards north, if estimated"),
+    ("wind_e", "m/s", "wind towards east"),
+    ("wind_d", "m/s", "wind downwards"),
+    ("x_cg", "m", "c.g. position along body x from the sensor-geometry reference point"),
+    ("y_cg", "m", "c.g. position along body y from the reference point"),
+    ("z_cg", "m", "c.g. position along body z from the reference point"),
+    ("n1", "-", "engine fan (low-pressure spool) speed, fraction of 100 % (mean of engines)"),
+    ("fuel_flow", "kg/s", "total engine fuel flow"),
 ]
+#: Sensor channels of the identification table that real aircraft may lack (no sideslip
+#: vane, no heading, no accelerometers): optional. The reconstruction estimates or flags
+#: what they would have given.
+SENSOR_COLUMNS: tuple[str, ...] = ("beta", "psi", "ax", "ay", "az")
 _TRUE_EXTRA = [
     ("true_qbar", "Pa", "true dynamic pressure 0.5 rho V^2"),
     ("true_CX", "-", "aerodynamic force coefficient along body x, thrust excluded"),
@@ -135,7 +155,8 @@ _TRUE_EXTRA = [
 ]
 _TRUE_OF = [r for r in _ID + _OPT if r[0] not in
             ("t", "mass", "Ixx", "Iyy", "Izz", "Ixz") and not r[0].startswith("thrust")
-            and r[0] not in ("dte", "flap", "gear", "speedbrake")]
+            and r[0] not in ("dte", "flap", "gear", "speedbrake", "x_cg", "y_cg", "z_cg",
+                             "n1", "fuel_flow")]
 
 #: Every column the schema knows, by name.
 FLIGHT_DATA_COLUMNS: dict[str, ColumnSpec] = {
@@ -204,12 +225,15 @@ class FlightDataReport:
     nan_gaps : list of NanGap
     unknown_columns : list of str
         Columns the schema does not define (kept, not checked).
+    empty_columns : list of str
+        Optional columns that are entirely NaN: treated as absent (no NaN gaps listed).
     """
 
     rows: int
     maneuvers: int
     nan_gaps: list = field(default_factory=list)
     unknown_columns: list = field(default_factory=list)
+    empty_columns: list = field(default_factory=list)
 
     def summary(self) -> str:
         """One-paragraph human-readable summary."""
@@ -218,7 +242,178 @@ class FlightDataReport:
             cols = sorted({g.column for g in self.nan_gaps})
             s += (f"; {len(self.nan_gaps)} NaN gap(s) in column(s) {cols} "
                   f"(first: {self.nan_gaps[0]})")
+        if self.empty_columns:
+            s += f"; column(s) {self.empty_columns} entirely NaN (treated as absent)"
         return s
+
+
+def present_columns(df) -> list[str]:
+    """Columns of ``df`` that hold data: every column except those entirely NaN.
+
+    A sensor column that is entirely NaN (an empty channel of a real record) counts as
+    absent, exactly as if it were missing. Non-numeric columns always count as present.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+
+    Returns
+    -------
+    list of str
+        In the order of ``df.columns``.
+    """
+    import pandas as pd  # optional dependency (the 'aero' extra)
+
+    out = []
+    for name in df.columns:
+        col = df[name]
+        if (len(col) and pd.api.types.is_float_dtype(col.dtype)
+                and np.isnan(col.to_numpy(dtype=float)).all()):
+            continue
+        out.append(name)
+    return out
+
+
+#: Channels that may carry a time lag in metadata ``sensor_geometry.lag_s``.
+LAG_CHANNELS: tuple[str, ...] = (
+    "alpha", "beta", "tas", "mach", "h", "rho", "p", "q", "r", "phi", "theta", "psi",
+    "ax", "ay", "az", "de", "da", "dr", "x_gps", "y_gps", "z_gps", "vn_gps", "ve_gps",
+    "vd_gps")
+#: Largest time lag accepted [s]: anything longer is a time-base error, not a sensor lag.
+MAX_LAG_S = 2.0
+#: Largest sensor distance from the reference point accepted [m] (a unit error beyond).
+MAX_ARM_M = 100.0
+
+
+@dataclass(frozen=True)
+class VaneCalibration:
+    """Position and calibration of one air-flow vane.
+
+    The vane reads ``scale * angle_at_vane + offset``, where ``angle_at_vane`` is the flow
+    angle of the air velocity at the vane, ``V + omega x (r_vane - r_cg)``.
+
+    Attributes
+    ----------
+    position_m : (3,) tuple of float
+        Vane position in body axes (x forward, y right, z down) from the reference point
+        [m] (the c.g. when the table has no ``x_cg, y_cg, z_cg`` columns).
+    scale : float
+        Scale factor (1 for a calibrated vane); positive.
+    offset_rad : float
+        Offset [rad].
+    """
+
+    position_m: tuple = (0.0, 0.0, 0.0)
+    scale: float = 1.0
+    offset_rad: float = 0.0
+
+
+@dataclass(frozen=True)
+class SensorGeometry:
+    """Sensor positions, calibrations and lags from metadata ``sensor_geometry``.
+
+    Attributes
+    ----------
+    alpha_vane, beta_vane : VaneCalibration
+    imu_position_m : (3,) tuple of float
+        Accelerometer position in body axes from the reference point [m].
+    lag_s : dict of str to float
+        Time lag per channel [s]: the recorded value at t is the true one at t - lag.
+    given : tuple of str
+        The entries the metadata gave (``alpha_vane``, ``beta_vane``, ``imu``, ``lag_s``);
+        the others are defaults (at the reference point, calibrated, no lag).
+    """
+
+    alpha_vane: VaneCalibration = VaneCalibration()
+    beta_vane: VaneCalibration = VaneCalibration()
+    imu_position_m: tuple = (0.0, 0.0, 0.0)
+    lag_s: dict = field(default_factory=dict)
+    given: tuple = ()
+
+
+def _vector(value, where: str) -> tuple:
+    try:
+        v = tuple(float(x) for x in value)
+    except (TypeError, ValueError):
+        v = ()
+    if len(v) != 3 or not all(math.isfinite(x) and abs(x) <= MAX_ARM_M for x in v):
+        _fail(f"metadata {where} must be three finite numbers [m] (x forward, y right, "
+              f"z down from the reference point, each within {MAX_ARM_M:g} m); got {value!r}")
+    return v
+
+
+def _number(value, where: str, *, positive: bool = False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not math.isfinite(v) or (positive and v <= 0):
+        _fail(f"metadata {where} must be a finite{' positive' if positive else ''} number; "
+              f"got {value!r}")
+    return v
+
+
+def sensor_geometry(metadata: Mapping) -> SensorGeometry:
+    """Parse and check metadata ``sensor_geometry`` (see docs/flight-data-schema.md).
+
+    Parameters
+    ----------
+    metadata : mapping
+        Flight-data metadata; ``sensor_geometry`` is optional::
+
+            {"alpha_vane": {"position_m": [x, y, z], "scale": 1.0, "offset_rad": 0.0},
+             "beta_vane": {...}, "imu": {"position_m": [x, y, z]},
+             "lag_s": {"alpha": 0.05, "tas": 0.1}}
+
+    Returns
+    -------
+    SensorGeometry
+        Defaults (sensors at the reference point, calibrated, no lags) for what is absent.
+
+    Raises
+    ------
+    FlightDataError
+        An unknown key, a position that is not three numbers within 100 m, a non-positive
+        scale, a lag outside 0 .. 2 s or for an unknown channel.
+    """
+    geo = metadata.get("sensor_geometry", {}) or {}
+    if not isinstance(geo, Mapping):
+        _fail("metadata 'sensor_geometry' must be a mapping (see docs/flight-data-schema.md)")
+    unknown = set(geo) - {"alpha_vane", "beta_vane", "imu", "lag_s"}
+    if unknown:
+        _fail(f"metadata sensor_geometry has unknown key(s) {sorted(unknown)}; known: "
+              "alpha_vane, beta_vane, imu, lag_s")
+    vanes = {}
+    for name in ("alpha_vane", "beta_vane"):
+        entry = geo.get(name, {}) or {}
+        if not isinstance(entry, Mapping) or set(entry) - {"position_m", "scale",
+                                                            "offset_rad"}:
+            _fail(f"metadata sensor_geometry.{name} must be a mapping with keys position_m, "
+                  f"scale, offset_rad; got {entry!r}")
+        vanes[name] = VaneCalibration(
+            _vector(entry.get("position_m", (0, 0, 0)), f"sensor_geometry.{name}.position_m"),
+            _number(entry.get("scale", 1.0), f"sensor_geometry.{name}.scale", positive=True),
+            _number(entry.get("offset_rad", 0.0), f"sensor_geometry.{name}.offset_rad"))
+    imu = geo.get("imu", {}) or {}
+    if not isinstance(imu, Mapping) or set(imu) - {"position_m"}:
+        _fail(f"metadata sensor_geometry.imu must be a mapping with key position_m; got {imu!r}")
+    arm = _vector(imu.get("position_m", (0, 0, 0)), "sensor_geometry.imu.position_m")
+    lags = geo.get("lag_s", {}) or {}
+    if not isinstance(lags, Mapping):
+        _fail("metadata sensor_geometry.lag_s must map channel names to lags [s]")
+    lag_s = {}
+    for ch, v in lags.items():
+        if ch not in LAG_CHANNELS:
+            _fail(f"metadata sensor_geometry.lag_s names unknown channel {ch!r}; channels: "
+                  f"{list(LAG_CHANNELS)}")
+        lag = _number(v, f"sensor_geometry.lag_s.{ch}")
+        if not 0 <= lag <= MAX_LAG_S:
+            _fail(f"metadata sensor_geometry.lag_s.{ch} = {lag:g} s is outside 0 .. "
+                  f"{MAX_LAG_S:g} s: a lag is a delay in seconds (check the unit)")
+        lag_s[ch] = lag
+    return SensorGeometry(vanes["alpha_vane"], vanes["beta_vane"], arm, lag_s,
+                          tuple(k for k in ("alpha_vane", "beta_vane", "imu", "lag_s")
+                                if k in geo))
 
 
 def _fail(msg: str):
@@ -247,6 +442,8 @@ def _check_metadata(metadata) -> None:
     units = metadata.get("units", {})
     if not isinstance(units, Mapping):
         _fail("metadata 'units' must map column names to unit strings")
+    if "sensor_geometry" in metadata:
+        sensor_geometry(metadata)
 
 
 def _nan_runs(values: np.ndarray, maneuver: np.ndarray, t: np.ndarray, column: str) -> list:
@@ -323,7 +520,7 @@ def validate_flight_data(df, metadata: Mapping | None = None, *,
                 _fail(f"column {name!r} must be numeric, got dtype {col.dtype}")
     maneuver = df["maneuver"].to_numpy()
     t = df["t"].to_numpy(dtype=float)
-    gaps = []
+    gaps, empty = [], []
     for name in df.columns:
         spec = FLIGHT_DATA_COLUMNS.get(name)
         if spec is None or spec.kind != "float":
@@ -332,6 +529,13 @@ def validate_flight_data(df, metadata: Mapping | None = None, *,
         if np.isinf(x).any():
             row = int(np.flatnonzero(np.isinf(x))[0])
             _fail(f"column {name!r} contains infinite values (first at row {row})")
+        if len(x) and np.isnan(x).all() and name != "t":
+            if spec.required:
+                _fail(f"required column {name!r} is entirely NaN (a column without data "
+                      "counts as missing); the schema requires "
+                      f"{list(REQUIRED_COLUMNS)} (see docs/flight-data-schema.md)")
+            empty.append(name)
+            continue
         gaps.extend(_nan_runs(x, maneuver, t, name))
         if name in _BOUNDS and len(x):
             lo, hi, unit = _BOUNDS[name]
@@ -354,7 +558,8 @@ def validate_flight_data(df, metadata: Mapping | None = None, *,
                   f"(row {int(order[j + 1])}: t = {ts[j + 1]:.6g} s after {ts[j]:.6g} s)")
     report = FlightDataReport(
         rows=len(df), maneuvers=int(len(np.unique(maneuver))), nan_gaps=gaps,
-        unknown_columns=[c for c in df.columns if c not in FLIGHT_DATA_COLUMNS])
+        unknown_columns=[c for c in df.columns if c not in FLIGHT_DATA_COLUMNS],
+        empty_columns=empty)
     if gaps and nan == "raise":
         g = gaps[0]
         _fail(f"column {g.column!r} has {g.samples} NaN sample(s) in maneuver {g.maneuver} "
