@@ -18,7 +18,7 @@ MIX = {"3211": 3, "doublet": 1, "sum-of-sines": 2}
 
 def small_campaign(aircraft: str, *, seed: int = 7, sensors: SensorModel | None = None,
                    maneuvers: int = 6, grid: ConditionGrid | None = None,
-                   maneuvers_per_condition: int | None = None, envelope=None,
+                   maneuvers_per_condition: int | None = None, envelope=None, wind=None,
                    **protocol) -> Campaign:
     """A short campaign; ``protocol`` overrides the :class:`FlightProtocol` settings."""
     return Campaign(aircraft, maneuvers=maneuvers,
@@ -27,7 +27,7 @@ def small_campaign(aircraft: str, *, seed: int = 7, sensors: SensorModel | None 
                     protocol=FlightProtocol(**{"mix": MIX, "sos_duration_s": (15.0, 20.0),
                                                **protocol}),
                     sensors=SensorModel.ideal() if sensors is None else sensors,
-                    envelope=envelope)
+                    envelope=envelope, wind=wind)
 
 
 @pytest.fixture(scope="session")

@@ -24,6 +24,7 @@ from simplexspline.sim import (
     FlightProtocol,
     PilotStyle,
     SensorModel,
+    Wind,
     envelope_coverage,
     get_aircraft,
 )
@@ -213,6 +214,64 @@ def test_same_seed_bit_identical_to_before_the_pilot_refactoring(f16_ideal, glob
     assert _fingerprint(global5000_ideal) == FINGERPRINTS["global5000"]
 
 
+def _air_velocity_ned(df: pd.DataFrame) -> np.ndarray:
+    """Air-relative velocity (n, 3) in NED from tas, alpha, beta and the attitude."""
+    a, b, V = df["true_alpha"], df["true_beta"], df["true_tas"]
+    uvw = np.column_stack([V * np.cos(a) * np.cos(b), V * np.sin(b), V * np.sin(a) * np.cos(b)])
+    ph, th, ps = (df[f"true_{x}"].to_numpy() for x in ("phi", "theta", "psi"))
+    cph, sph, cth, sth, cps, sps = np.cos(ph), np.sin(ph), np.cos(th), np.sin(th), \
+        np.cos(ps), np.sin(ps)
+    rows = [
+        (cth * cps, sph * sth * cps - cph * sps, cph * sth * cps + sph * sps),
+        (cth * sps, sph * sth * sps + cph * cps, cph * sth * sps - sph * cps),
+        (-sth, sph * cth, cph * cth),
+    ]
+    return np.column_stack([sum(r[j] * uvw[:, j] for j in range(3)) for r in rows])
+
+
+def _check_wind_identity(df: pd.DataFrame) -> None:
+    """Ground velocity = air velocity + true wind at every sample; Eq. 43-48 still exact."""
+    ground = df[["true_vn_gps", "true_ve_gps", "true_vd_gps"]].to_numpy()
+    wind = df[["true_wind_n", "true_wind_e", "true_wind_d"]].to_numpy()
+    assert np.abs(ground - wind - _air_velocity_ned(df)).max() < 1e-3
+    for name, c in _eq43_48(df).items():  # ideal sensors
+        assert np.max(np.abs(c - df[f"true_{name}"])) <= 1e-6, name
+
+
+def test_steady_wind_keeps_the_trim_and_is_recorded():
+    df = small_campaign("global5000", maneuvers=2, mix={"3211": 1, "sum-of-sines": 1},
+                        wind=Wind((10.0, 15.0))).run(workers=1, progress=False)
+    assert df.attrs["simulator"]["wind"] == {"speed_mps": (10.0, 15.0), "turbulence": "none"}
+    _check_wind_identity(df)
+    for _, m in df.groupby("maneuver"):
+        speed = np.hypot(m["true_wind_n"], m["true_wind_e"])
+        assert 10.0 <= speed.min() and speed.max() <= 15.0 and np.ptp(speed) < 1e-9
+        assert np.hypot(m["vn_gps"] - m["true_wind_n"], m["ve_gps"] - m["true_wind_e"]).iloc[0] \
+            == pytest.approx(m["tas"].iloc[0], abs=0.05)
+        first = m.iloc[0]  # trimmed, air-relative: as in still air
+        assert abs(first["true_theta"] - first["true_alpha"]) < 1e-3
+        assert abs(first["true_beta"]) < 1e-3
+        assert abs(first["true_az"] + G0 * math.cos(first["true_theta"])) < 0.02
+        lead = m[m["t"] < LEAD_S - 0.2]
+        assert np.abs(lead[["p", "q", "r"]].to_numpy()).max() < 5e-4
+
+
+def test_turbulence_moves_the_air_and_is_recorded():
+    df = small_campaign("global5000", maneuvers=1, mix={"doublet": 1},
+                        wind=Wind((5.0, 5.0), "light")).run(workers=1, progress=False)
+    _check_wind_identity(df)
+    assert np.ptp(np.hypot(df["true_wind_n"], df["true_wind_e"])) > 0.05
+    assert np.ptp(df["true_wind_d"]) > 0.05
+    again = small_campaign("global5000", maneuvers=1, mix={"doublet": 1},
+                           wind=Wind((5.0, 5.0), "light")).run(workers=1, progress=False)
+    pd.testing.assert_frame_equal(df, again, check_exact=True)  # seeded gusts
+
+
+def test_still_air_campaigns_have_no_wind_columns(f16_ideal):
+    assert not any(c.startswith("true_wind") for c in f16_ideal.columns)
+    assert f16_ideal.attrs["simulator"]["wind"] is None
+
+
 def test_campaign_round_trips_through_parquet(tmp_path, f16_ideal):
     from simplexspline.aero.data.flight_data import read_flight_data, write_flight_data
 
@@ -344,6 +403,7 @@ def test_simulate_campaign_writes_the_file(tmp_path):
     ({"protocol": {"turn_fraction": 1.5}}, "turn_fraction must be a number in"),
     ({"protocol": {"pilot_delay_s": float("nan")}}, "pilot_delay_s must be"),
     ({"protocol": {"design": "mine"}}, "unknown excitation design 'mine'"),
+    ({"wind": "gale"}, "wind must be a simplexspline.sim.Wind"),
     ({"protocol": {"pilot": "relaxed"}}, "pilot must be a simplexspline.sim.PilotStyle"),
     ({"protocol": {"pilot_delay_s": 0.5, "pilot": PilotStyle(delay_s=0.3)}},
      "give the delay in one place"),

@@ -35,6 +35,7 @@ from simplexspline.sim.flight import simulate_maneuver, trim_condition
 from simplexspline.sim.maneuvers import (AXES, EXCITATION_DESIGNS, MANEUVER_FAMILIES,
                                          design_maneuver)
 from simplexspline.sim.pilot import PilotStyle
+from simplexspline.sim.wind import Wind
 from simplexspline.sim.sensors import SensorModel
 
 __all__ = ["Campaign", "ConditionGrid", "FlightProtocol", "simulate_campaign", "DEFAULT_MIX",
@@ -247,6 +248,9 @@ class Campaign:
         ``SensorModel.ideal()`` for perfect sensors.
     envelope : Envelope, optional
         Limits of kept data (default: the profile's).
+    wind : Wind, optional
+        Steady wind and turbulence, drawn per maneuver (default: still air). The trimmed
+        air-relative state is kept; the true wind is recorded in ``true_wind_n/e/d``.
 
     Examples
     --------
@@ -261,7 +265,8 @@ class Campaign:
     def __init__(self, aircraft: str | AircraftProfile = "f16", *, maneuvers: int = 250,
                  maneuvers_per_condition: int | None = None, seed: int = 0,
                  grid: ConditionGrid | None = None, protocol: FlightProtocol | None = None,
-                 sensors: SensorModel | None = None, envelope: Envelope | None = None):
+                 sensors: SensorModel | None = None, envelope: Envelope | None = None,
+                 wind: Wind | None = None):
         self.aircraft = aircraft
         self.maneuvers = maneuvers
         self.maneuvers_per_condition = maneuvers_per_condition
@@ -270,6 +275,7 @@ class Campaign:
         self.protocol = FlightProtocol() if protocol is None else protocol
         self.sensors = sensors
         self.envelope = envelope
+        self.wind = wind
 
     # ------------------------------------------------------------------ validation
     def _settings(self) -> dict:
@@ -284,6 +290,8 @@ class Campaign:
             raise InputError("grid must be a simplexspline.sim.ConditionGrid")
         if not isinstance(self.protocol, FlightProtocol):
             raise InputError("protocol must be a simplexspline.sim.FlightProtocol")
+        if self.wind is not None and not isinstance(self.wind, Wind):
+            raise InputError("wind must be a simplexspline.sim.Wind or None")
         alts, tas = self.grid.values(profile)
         if self.maneuvers_per_condition is None:
             if int(self.maneuvers) != self.maneuvers or self.maneuvers < 1:
@@ -358,6 +366,9 @@ class Campaign:
                 "seed": int(self.seed), "min_kept_s": float(protocol.min_kept_s),
                 "pilot": protocol.pilot.to_dict(), "scratch": scratch,
             })
+            if self.wind is not None:  # its own stream: still-air campaigns are unchanged
+                specs[-1]["wind"] = self.wind.draw(np.random.default_rng(
+                    np.random.SeedSequence(int(self.seed), spawn_key=(2, i))))
         return specs
 
     # ------------------------------------------------------------------ running

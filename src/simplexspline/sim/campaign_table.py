@@ -99,6 +99,7 @@ def assemble(results: list, conditions: list, st: dict, campaign):
                 "pilot_style": protocol.pilot.to_dict(),
             },
             "sensors": sensors.to_dict(),
+            "wind": None if campaign.wind is None else campaign.wind.to_dict(),
             "envelope": env.to_dict(),
             "actuators": {name: {"limit_rad": s.limit, "rate_rad_s": s.rate, "tau_s": s.tau}
                           for name, s in zip(("elevator", "aileron", "rudder"),
