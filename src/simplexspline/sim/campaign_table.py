@@ -118,6 +118,9 @@ def assemble(results: list, conditions: list, st: dict, campaign):
         "conditions": conditions,
         "maneuvers": logs,
     }
+    geometry = sensors.sensor_geometry()
+    if geometry is not None:
+        meta["sensor_geometry"] = geometry
     df.attrs = meta
     return df
 
