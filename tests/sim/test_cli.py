@@ -43,6 +43,16 @@ def test_simulate_alternative_protocol_between_the_grid(tmp_path):
     assert df["maneuver_type"].astype(str).str.startswith("3211").all()
 
 
+def test_simulate_channels_format_writes_a_record_directory(tmp_path, capsys):
+    out = tmp_path / "record"
+    assert main(["simulate", "--aircraft", "c172p", "--maneuvers", "1", "--mix", "doublet=1",
+                 "--altitudes", "1000", "--airspeeds", "45", "--workers", "1",
+                 "--format", "channels", "-o", str(out)]) == 0
+    assert (out / "mapping.toml").is_file() and (out / "ias.txt").is_file()
+    assert (out / "heading.txt").read_text() == "" and not (out / "beta.txt").exists()
+    assert "1 of 1 maneuvers kept" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--aircraft", "spitfire"], "unknown aircraft 'spitfire'"),
     (["--maneuvers", "0"], "argument --maneuvers: expected an integer >= 1, got '0'"),

@@ -11,7 +11,7 @@ from simplexspline.cli import arguments
 from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError
 from simplexspline.sim import (Campaign, ConditionGrid, FlightProtocol, SensorModel,
-                               available_aircraft)
+                               available_aircraft, write_channel_record)
 
 
 def _floats(text: str) -> list[float]:
@@ -80,15 +80,21 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help="perfect sensors: measured channels equal the true ones")
     p.add_argument("--workers", type=arguments.count, default=None,
                    help="worker processes (number of CPUs)")
+    p.add_argument("--format", choices=("table", "channels"), default="table",
+                   help="'channels': a real-format record in the directory -o, one text file "
+                        "per channel at 10 Hz in aviation units (deg, knots, ft, g, degC, lbs "
+                        "of fuel used), no sideslip vane, an empty heading, GPS latitude and "
+                        "longitude only, with maneuvers.csv, mapping.toml and truth.csv (table)")
     p.add_argument("-o", "--output", type=Path, required=True,
-                   help="output file, .parquet (preferred) or .csv (+ .csv.json metadata)")
+                   help="output file, .parquet (preferred) or .csv (+ .csv.json metadata); "
+                        "a new directory with --format channels")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``simplexspline simulate`` with the parsed arguments; returns the exit code."""
-    if args.output.suffix.lower() not in (".parquet", ".pq", ".csv"):
+    if args.format == "table" and args.output.suffix.lower() not in (".parquet", ".pq", ".csv"):
         raise InputError(f"output {str(args.output)!r} must end in .parquet or .csv")
     if not args.output.parent.is_dir():
         raise InputError(f"output directory {str(args.output.parent)!r} does not exist")
@@ -111,7 +117,10 @@ def run(args: argparse.Namespace) -> int:
     df = campaign.run(workers=args.workers,
                       progress=(not args.quiet) and sys.stderr.isatty())
     t1 = time.perf_counter()
-    write_flight_data(df, args.output)
+    if args.format == "channels":
+        write_channel_record(df, args.output)
+    else:
+        write_flight_data(df, args.output)
     t2 = time.perf_counter()
     if not args.quiet:
         s = df.attrs["summary"]

@@ -36,6 +36,7 @@ from simplexspline.sim.campaign import (
 )
 from simplexspline.sim.maneuvers import EXCITATION_DESIGNS, MANEUVER_FAMILIES, MANEUVER_TYPES
 from simplexspline.sim.pilot import PilotStyle
+from simplexspline.sim.record_export import write_channel_record
 from simplexspline.sim.wind import Wind
 from simplexspline.sim.sensors import (
     DEFAULT_BIAS,
@@ -50,6 +51,7 @@ __all__ = [
     "FlightProtocol",
     "PilotStyle",
     "simulate_campaign",
+    "write_channel_record",
     "SensorModel",
     "Wind",
     "Envelope",
