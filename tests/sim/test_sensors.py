@@ -174,3 +174,11 @@ def test_sensor_geometry_metadata_follows_the_schema():
 def test_invalid_sensor_geometry(kwargs, match):
     with pytest.raises(InputError, match=match):
         SensorModel(**kwargs)
+
+
+def test_real_like_sensors_carry_geometry_and_lags():
+    sm = SensorModel.real_like()
+    meta = sm.sensor_geometry()
+    assert meta["alpha_vane"]["position_m"][0] > 0 and meta["alpha_vane"]["scale"] != 1.0
+    assert meta["lag_s"]["alpha"] > 0 and any(meta["imu"]["position_m"])
+    assert sm.noise_std == SensorModel().noise_std

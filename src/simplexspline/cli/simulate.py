@@ -10,8 +10,8 @@ from pathlib import Path
 from simplexspline.cli import arguments
 from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError
-from simplexspline.sim import (Campaign, ConditionGrid, FlightProtocol, SensorModel,
-                               available_aircraft, write_channel_record)
+from simplexspline.sim import (TURBULENCE_SEVERITY, Campaign, ConditionGrid, FlightProtocol,
+                               SensorModel, Wind, available_aircraft, write_channel_record)
 
 
 def _floats(text: str) -> list[float]:
@@ -78,6 +78,16 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help="factor on the default sensor biases (1.0)")
     p.add_argument("--ideal-sensors", action="store_true",
                    help="perfect sensors: measured channels equal the true ones")
+    p.add_argument("--real-like", action="store_true",
+                   help="sensor geometry of a real installation (vane boom, scale errors, IMU "
+                        "lever arm, air-data lags: SensorModel.real_like) and, unless --wind "
+                        "is given, a 3-12 m/s wind with light turbulence")
+    p.add_argument("--wind", type=_floats, default=None, metavar="LOW,HIGH",
+                   help="steady wind speed range [m/s], a new speed and direction per maneuver "
+                        "(still air)")
+    p.add_argument("--turbulence", choices=tuple(TURBULENCE_SEVERITY), default=None,
+                   help="JSBSim MIL-F-8785C turbulence on top of the wind (none; light with "
+                        "--real-like)")
     p.add_argument("--workers", type=arguments.count, default=None,
                    help="worker processes (number of CPUs)")
     p.add_argument("--format", choices=("table", "channels"), default="table",
@@ -100,8 +110,21 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"output directory {str(args.output.parent)!r} does not exist")
     if args.noise_scale < 0 or args.bias_scale < 0:
         raise InputError("--noise-scale and --bias-scale must be non-negative")
+    if args.ideal_sensors and args.real_like:
+        raise InputError("--ideal-sensors and --real-like contradict each other: choose one")
     sensors = (SensorModel.ideal() if args.ideal_sensors
-               else SensorModel().scaled(noise=args.noise_scale, bias=args.bias_scale))
+               else (SensorModel.real_like() if args.real_like else SensorModel())
+               .scaled(noise=args.noise_scale, bias=args.bias_scale))
+    wind = None
+    if args.wind is not None or args.turbulence is not None or args.real_like:
+        speeds = args.wind if args.wind is not None else ((3.0, 12.0) if args.real_like
+                                                          else (0.0, 0.0))
+        if len(speeds) == 1:
+            speeds = speeds * 2
+        if len(speeds) != 2:
+            raise InputError(f"--wind takes LOW,HIGH [m/s], got {args.wind!r}")
+        turbulence = args.turbulence or ("light" if args.real_like else "none")
+        wind = Wind(tuple(speeds), turbulence)
     grid = (ConditionGrid.between(args.aircraft) if args.conditions == "between"
             else ConditionGrid())
     grid = ConditionGrid(args.altitudes or grid.altitudes_m, args.airspeeds or grid.airspeeds_mps)
@@ -112,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
                 else FlightProtocol(**protocol))
     campaign = Campaign(args.aircraft, maneuvers=args.maneuvers,
                         maneuvers_per_condition=args.per_condition, seed=args.seed,
-                        grid=grid, protocol=protocol, sensors=sensors)
+                        grid=grid, protocol=protocol, sensors=sensors, wind=wind)
     t0 = time.perf_counter()
     df = campaign.run(workers=args.workers,
                       progress=(not args.quiet) and sys.stderr.isatty())

@@ -37,7 +37,7 @@ from simplexspline.sim.campaign import (
 from simplexspline.sim.maneuvers import EXCITATION_DESIGNS, MANEUVER_FAMILIES, MANEUVER_TYPES
 from simplexspline.sim.pilot import PilotStyle
 from simplexspline.sim.record_export import write_channel_record
-from simplexspline.sim.wind import Wind
+from simplexspline.sim.wind import TURBULENCE_SEVERITY, Wind
 from simplexspline.sim.sensors import (
     DEFAULT_BIAS,
     DEFAULT_NOISE_STD,
@@ -54,6 +54,7 @@ __all__ = [
     "write_channel_record",
     "SensorModel",
     "Wind",
+    "TURBULENCE_SEVERITY",
     "Envelope",
     "AircraftProfile",
     "Surface",
