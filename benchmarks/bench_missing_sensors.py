@@ -56,9 +56,18 @@ def main() -> None:
     ap.add_argument("--default-sensors", action="store_true",
                     help="default sensors at the c.g. (default: SensorModel.real_like())")
     ap.add_argument("--variants", default="", help="';'-separated subset of the variants")
+    ap.add_argument("--tas-bias", type=float, default=None,
+                    help="override the airspeed sensor's bias [m/s] (an experiment: how "
+                         "much of the no-GPS coefficient bias is the airspeed bias)")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     sensors = SensorModel() if args.default_sensors else SensorModel.real_like()
+    if args.tas_bias is not None:
+        sensors = SensorModel(noise_std=sensors.noise_std, bias={**sensors.bias,
+                                                                  "tas": args.tas_bias},
+                              lag_s=sensors.lag_s, alpha_vane=sensors.alpha_vane,
+                              beta_vane=sensors.beta_vane,
+                              imu_position_m=sensors.imu_position_m)
     wind = None if args.still else Wind((5.0, 12.0), "none")
     t0 = time.time()
     df = Campaign("f16", maneuvers=args.maneuvers, seed=args.seed, sensors=sensors, wind=wind,
@@ -69,7 +78,9 @@ def main() -> None:
         workers=args.workers, progress=False)
     print(f"campaign: f16, {df['maneuver'].nunique()} maneuvers, {len(df):,} samples, "
           f"{'still air' if wind is None else 'wind 5-12 m/s'}, "
-          f"{'default' if args.default_sensors else 'real-like'} sensors, seed {args.seed} "
+          f"{'default' if args.default_sensors else 'real-like'} sensors"
+          f"{'' if args.tas_bias is None else f' (airspeed bias {args.tas_bias} m/s)'}, "
+          f"seed {args.seed} "
           f"({time.time() - t0:.0f} s)\n")
     names = [v for v in args.variants.split(";") if v] or list(VARIANTS)
     raw = {c: _rms(df[c] - df["true_" + c]) for c in ("alpha", "beta", "tas")}
