@@ -340,9 +340,9 @@ def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
     va = vv - (C[0][1] * wn + C[1][1] * we + C[2][1] * wd)
     wa = ww - (C[0][2] * wn + C[1][2] * we + C[2][2] * wd)
     if arm is None:
-        a0 = a1 = a2 = b0 = b1 = b2 = 0.0
+        a0 = a2 = b0 = b1 = b2 = 0.0
     else:
-        a0, a1, a2, b0, b1, b2 = arm.tolist()
+        a0, _, a2, b0, b1, b2 = arm.tolist()      # v at the alpha vane does not matter
     V = math.sqrt(ua * ua + va * va + wa * wa)
     ul, wl = ua + a0, wa + a2
     uw2a = ul * ul + wl * wl
