@@ -436,3 +436,17 @@ def test_divergence_messages_name_units_and_signs(noisy_campaign):
     except FlightDataError as exc:
         rec_or_error = str(exc)
     assert "sign of 'phi'" in str(rec_or_error)
+
+
+def test_maneuvers_without_gps_use_the_campaign_calibration(noisy_campaign):
+    two = noisy_campaign[noisy_campaign["maneuver"].isin([2, 3])].copy()
+    two.loc[two["maneuver"] == 3, GPS] = np.nan          # GPS lost in maneuver 3
+    rec = reconstruct(two, workers=2)
+    cal = rec.data.attrs["reconstruction"]["air_data_calibration"]
+    assert cal, "the GPS maneuver calibrates at least one air-data error"
+    names = {"btas": "tas", "balpha": "alpha", "bbeta": "beta"}
+    for k, (value, sigma) in cal.items():
+        ch = names.get(k, k)
+        assert rec.maneuvers[3]["held"][ch].startswith("campaign air-data calibration")
+        assert rec.maneuvers[3]["biases"][ch][0] == pytest.approx(value, abs=1e-6)
+    assert rec.maneuvers[3]["held"]["wind_n"].startswith("unobservable without GPS")

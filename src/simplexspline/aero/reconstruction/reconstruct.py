@@ -318,8 +318,10 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     if not np.any(arm):
         arm = None
     plan = observability_plan(present, estimate_vane_scale=s["estimate_vane_scale"])
+    # the campaign's air-data calibration (from its GPS maneuvers) also serves the
+    # maneuvers without GPS, which cannot observe it themselves
     calibration = {k: v for k, v in (task.get("calibration") or {}).items()
-                   if k not in plan["held"]}
+                   if k not in plan["held"] or plan["held"][k].startswith("unobservable")}
     for k in calibration:
         plan["held"][k] = "campaign air-data calibration (held at its estimate)"
     z = np.full((n, len(MEASUREMENT_NAMES)), np.nan)
