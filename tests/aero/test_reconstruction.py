@@ -14,6 +14,7 @@ from simplexspline.aero.reconstruction.iekf import FilterNoise, rts_smooth, run_
 from simplexspline.aero.reconstruction.kinematics import (
     MEASUREMENT_NAMES, NX, NZ, EarthModel, measure, normal_gravity, propagate,
 )
+from simplexspline.aero.reconstruction.observability import heading_excursion
 from simplexspline.aero.reconstruction.reconstruct import initial_state, innovation_statistics
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.sim.sensors import DEFAULT_BIAS, DEFAULT_NOISE_STD
@@ -450,3 +451,14 @@ def test_maneuvers_without_gps_use_the_campaign_calibration(noisy_campaign):
         assert rec.maneuvers[3]["held"][ch].startswith("campaign air-data calibration")
         assert rec.maneuvers[3]["biases"][ch][0] == pytest.approx(value, abs=1e-6)
     assert rec.maneuvers[3]["held"]["wind_n"].startswith("unobservable without GPS")
+
+
+def test_calibration_pass_prefers_maneuvers_that_turn():
+    t = np.arange(1000) * 0.01
+    zero = np.zeros_like(t)
+    turn = {"t": t, "q": zero, "r": np.full_like(t, 0.1), "phi": zero, "theta": zero}
+    level = dict(turn, r=zero)
+    assert heading_excursion(turn) == pytest.approx(0.1 * 9.99, rel=1e-3)
+    assert heading_excursion(level) == 0.0
+    with pytest.raises(InputError, match="calibration_maneuvers"):
+        ReconstructionSettings(calibration_maneuvers=0)

@@ -36,7 +36,7 @@ from collections.abc import Mapping
 import numpy as np
 
 __all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "channels_present",
-           "observability_plan", "variance_reduction"]
+           "heading_excursion", "observability_plan", "variance_reduction"]
 
 GPS_VELOCITY = ("vn_gps", "ve_gps", "vd_gps")
 GPS_POSITION = ("x_gps", "y_gps", "z_gps")
@@ -154,3 +154,29 @@ def variance_reduction(prior_sd: np.ndarray, posterior_sd: np.ndarray) -> np.nda
     """
     prior_sd = np.asarray(prior_sd, dtype=float)
     return np.asarray(posterior_sd, dtype=float) / np.where(prior_sd > 0, prior_sd, np.inf)
+
+
+def heading_excursion(task: Mapping) -> float:
+    """Heading change within a maneuver [rad], from the gyros and attitude.
+
+    ``max - min`` of the integrated Euler heading rate ``(q sin(phi) + r cos(phi)) /
+    cos(theta)``: what separates a constant wind from constant air-data errors (the
+    campaign calibration prefers maneuvers that turn).
+
+    Parameters
+    ----------
+    task : mapping
+        ``t`` [s], ``q``, ``r`` [rad/s], ``phi``, ``theta`` [rad], (n,) arrays each.
+
+    Returns
+    -------
+    float
+    """
+    t = np.asarray(task["t"], dtype=float)
+    if t.size < 2:
+        return 0.0
+    phi, theta = np.asarray(task["phi"], dtype=float), np.asarray(task["theta"], dtype=float)
+    psidot = ((np.asarray(task["q"], dtype=float) * np.sin(phi)
+               + np.asarray(task["r"], dtype=float) * np.cos(phi)) / np.cos(theta))
+    psi = np.nancumsum(psidot) * float(np.median(np.diff(t)))
+    return float(np.nanmax(psi) - np.nanmin(psi))

@@ -40,7 +40,7 @@ from simplexspline.aero.reconstruction.kinematics import (
     EarthModel, measure,
 )
 from simplexspline.aero.reconstruction.observability import (
-    channels_present, observability_plan, variance_reduction,
+    channels_present, heading_excursion, observability_plan, variance_reduction,
 )
 from simplexspline.aero.reconstruction.sensor_corrections import (
     estimate_lag, rotation_velocity, specific_force_at_cg, undo_lag,
@@ -137,6 +137,10 @@ class ReconstructionSettings:
         calibration (the sensors are the same in every maneuver), and the second pass holds
         them there and estimates the wind per maneuver. 'maneuver': one pass, everything
         per maneuver.
+    calibration_maneuvers : int
+        The first pass uses at most this many GPS maneuvers, those with the largest heading
+        change (what separates a constant wind from air-data errors), so its cost stays
+        bounded on large campaigns.
     """
 
     input_noise: dict = field(default_factory=_default_input_noise)
@@ -158,6 +162,7 @@ class ReconstructionSettings:
     velocity_random_walk: float = 5.0
     estimate_lags: bool = True
     air_data_calibration: str = "campaign"
+    calibration_maneuvers: int = 20
 
     def __post_init__(self):
         for name, keys in (("input_noise", INPUT_NAMES), ("measurement_noise",
@@ -182,6 +187,9 @@ class ReconstructionSettings:
             raise InputError("need tol > 0, max_iter >= 1, min_duration_s >= 0, "
                              "velocity_model_noise >= 0, wind_random_walk >= 0, "
                              "beta_pseudo_std > 0 and velocity_random_walk > 0")
+        if int(self.calibration_maneuvers) != self.calibration_maneuvers or \
+                self.calibration_maneuvers < 1:
+            raise InputError("calibration_maneuvers must be a positive integer")
         if self.air_data_calibration not in ("campaign", "maneuver"):
             raise InputError("air_data_calibration must be 'campaign' or 'maneuver'")
         if self.accelerations not in ("auto", "measured", "differentiate"):
@@ -794,6 +802,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
     if not gps:
         return {}
+    gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
     results = _run_all(gps, s, workers, progress)
     out = {}
