@@ -8,6 +8,7 @@ import pytest
 
 from simplexspline.aero import aerodynamic_coefficients, angular_accelerations, midpoint_derivative
 from simplexspline.aero.data.coefficients import THRUST_COLUMNS
+from simplexspline.aero.data.thrust import ThrustModel
 from simplexspline.aero.variables import COEFFICIENTS
 from simplexspline.errors import FlightDataError, InputError
 
@@ -103,3 +104,39 @@ def test_midpoint_derivative_short_and_invalid():
         midpoint_derivative(np.array([1.0]), 0.01)
     with pytest.raises(InputError, match="half_window"):
         midpoint_derivative(np.arange(10.0), 0.01, half_window=0)
+
+
+def test_without_accelerometers_only_moment_coefficients(ideal_campaign):
+    coef, _ = aerodynamic_coefficients(ideal_campaign.drop(columns=["ax", "ay", "az"]),
+                                       accelerations="measured")
+    assert coef[["CX", "CY", "CZ"]].isna().all().all()
+    for c in ("Cl", "Cm", "Cn"):
+        np.testing.assert_allclose(coef[c], ideal_campaign["true_" + c], atol=1e-6)
+
+
+def test_a_thrust_model_replaces_missing_thrust_columns(ideal_campaign):
+    df = ideal_campaign.drop(columns=list(THRUST_COLUMNS))
+    truth = {c: ideal_campaign[c].to_numpy() for c in THRUST_COLUMNS}
+    coef, thrust = aerodynamic_coefficients(df, accelerations="measured",
+                                            thrust_model=lambda d: truth)
+    assert thrust
+    for c in COEFFICIENTS:
+        np.testing.assert_allclose(coef[c], ideal_campaign["true_" + c], atol=1e-6)
+    with pytest.raises(InputError, match="unknown key.*'thrust'"):
+        aerodynamic_coefficients(df, thrust_model=lambda d: {"thrust": 1.0})
+
+
+def test_thrust_model_of_fan_speed_density_and_mach():
+    df = pd.DataFrame({"n1": [0.5, 1.0], "rho": [1.225, 0.6125], "mach": [0.0, 0.5]})
+    model = ThrustModel("n1", coefficients=(0.0, 0.0, 40000.0), engines=2,
+                        density_exponent=1.0, mach_factor=0.2, z_thrust_m=0.5)
+    T = model(df)
+    np.testing.assert_allclose(T["thrust_x"], [2 * 10000.0, 2 * 40000.0 * 0.5 * 1.1])
+    np.testing.assert_allclose(T["thrust_m"], 0.5 * T["thrust_x"])
+    assert ThrustModel.from_config({"input": "fuel_flow", "coefficients": [0, 5e4]}).engines == 1
+    with pytest.raises(InputError, match="'n1' or 'fuel_flow'"):
+        ThrustModel("rpm", (1.0,))
+    with pytest.raises(InputError, match="unknown key"):
+        ThrustModel.from_config({"input": "n1", "coefficients": [1], "sfc": 2})
+    with pytest.raises(FlightDataError, match="needs column 'n1'"):
+        model(df.drop(columns=["n1"]))

@@ -7,7 +7,7 @@ import pytest
 
 from simplexspline.aero.config import load_config, parse_structure, settings_from_config
 from simplexspline.aero.identify import IdentificationSettings
-from simplexspline.aero.modelling.presets import PAPER_PRESET, preset
+from simplexspline.aero.modelling.presets import AUTO_PRESET, PAPER_PRESET, preset
 from simplexspline.aero.modelling.structure import Scaling, Structure
 from simplexspline.errors import InputError
 
@@ -101,7 +101,7 @@ resolution = 2
     assert s.selection.max_rounds == 2 and s.selection.candidates == ("alpha", "qhat")
     cz = s.starting_structures()["CZ"]
     assert cz == Structure("CZ", ("alpha", "de", "qhat"), 4, 1, (2, 2, 2))
-    assert s.starting_structures()["Cm"] == PAPER_PRESET["Cm"]
+    assert s.starting_structures()["Cm"] == AUTO_PRESET["Cm"]        # the default preset
 
 
 @pytest.mark.parametrize("config, match", [

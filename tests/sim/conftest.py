@@ -10,13 +10,15 @@ from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorMod
 SMALL = {
     "f16": ConditionGrid(altitudes_m=[3000.0, 7000.0], airspeeds_mps=[160.0, 220.0]),
     "global5000": ConditionGrid(altitudes_m=[3000.0, 8000.0], airspeeds_mps=[170.0, 220.0]),
+    "c172p": ConditionGrid(altitudes_m=[800.0, 2000.0], airspeeds_mps=[42.0, 55.0]),
+    "A4": ConditionGrid(altitudes_m=[3000.0, 8000.0], airspeeds_mps=[160.0, 220.0]),
 }
 MIX = {"3211": 3, "doublet": 1, "sum-of-sines": 2}
 
 
 def small_campaign(aircraft: str, *, seed: int = 7, sensors: SensorModel | None = None,
                    maneuvers: int = 6, grid: ConditionGrid | None = None,
-                   maneuvers_per_condition: int | None = None, envelope=None,
+                   maneuvers_per_condition: int | None = None, envelope=None, wind=None,
                    **protocol) -> Campaign:
     """A short campaign; ``protocol`` overrides the :class:`FlightProtocol` settings."""
     return Campaign(aircraft, maneuvers=maneuvers,
@@ -25,7 +27,7 @@ def small_campaign(aircraft: str, *, seed: int = 7, sensors: SensorModel | None 
                     protocol=FlightProtocol(**{"mix": MIX, "sos_duration_s": (15.0, 20.0),
                                                **protocol}),
                     sensors=SensorModel.ideal() if sensors is None else sensors,
-                    envelope=envelope)
+                    envelope=envelope, wind=wind)
 
 
 @pytest.fixture(scope="session")
@@ -40,6 +42,20 @@ def global5000_ideal():
     return small_campaign("global5000").run(workers=1, progress=False)
 
 
-@pytest.fixture(scope="session", params=["f16", "global5000"])
-def ideal(request, f16_ideal, global5000_ideal):
-    return {"f16": f16_ideal, "global5000": global5000_ideal}[request.param]
+@pytest.fixture(scope="session")
+def c172p_ideal():
+    """Six c172p (light piston) maneuvers, perfect sensors, run in this process."""
+    return small_campaign("c172p").run(workers=1, progress=False)
+
+
+@pytest.fixture(scope="session")
+def a4_ideal():
+    """Six A4 (subsonic attack jet) maneuvers, perfect sensors, run in this process."""
+    return small_campaign("A4").run(workers=1, progress=False)
+
+
+@pytest.fixture(scope="session", params=["f16", "global5000", "c172p", "A4"])
+def ideal(request):
+    """Each bundled aircraft's small ideal campaign (built on first use)."""
+    return request.getfixturevalue({"f16": "f16_ideal", "global5000": "global5000_ideal",
+                                    "c172p": "c172p_ideal", "A4": "a4_ideal"}[request.param])

@@ -17,7 +17,7 @@ from simplexspline.sim import (
 )
 
 
-@pytest.mark.parametrize("name", ["f16", "global5000"])
+@pytest.mark.parametrize("name", ["f16", "global5000", "c172p", "A4"])
 def test_profile_round_trips_as_plain_data(name):
     prof = get_aircraft(name)
     assert AircraftProfile.from_dict(prof.to_dict()) == prof
@@ -38,4 +38,13 @@ def test_a_profile_naming_a_missing_property_fails_clearly():
     campaign = Campaign(prof, grid=ConditionGrid([3000.0], [170.0]), maneuvers=1,
                         protocol=FlightProtocol(mix={"doublet": 1}), sensors=SensorModel.ideal())
     with pytest.raises(SimulationError, match="property 'fcs/no-such-flap' does not exist"):
+        campaign.run(workers=1, progress=False)
+
+
+def test_a_profile_loading_a_missing_property_fails_clearly():
+    prof = get_aircraft("c172p").replace(name="c172p-broken",
+                                         loading=(("inertia/no-such", 0.0),))
+    campaign = Campaign(prof, grid=ConditionGrid([1000.0], [45.0]), maneuvers=1,
+                        protocol=FlightProtocol(mix={"doublet": 1}), sensors=SensorModel.ideal())
+    with pytest.raises(InputError, match="loading property 'inertia/no-such' does not"):
         campaign.run(workers=1, progress=False)

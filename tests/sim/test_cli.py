@@ -31,10 +31,37 @@ def test_simulate_quiet_csv(tmp_path, capsys):
     assert len(df) > 500 and meta["sample_rate_hz"] == 100.0
 
 
+def test_simulate_alternative_protocol_between_the_grid(tmp_path):
+    out = tmp_path / "c.parquet"
+    assert main(["simulate", "--aircraft", "c172p", "--maneuvers", "1", "--seed", "4",
+                 "--protocol", "alternative", "--conditions", "between", "--mix", "3211=1",
+                 "--workers", "1", "-q", "-o", str(out)]) == 0
+    df, meta = read_flight_data(out)
+    campaign = meta["simulator"]["campaign"]
+    assert campaign["design"] == "alternative" and campaign["pilot_style"]["delay_s"] == 0.35
+    assert campaign["airspeeds_mps"] == [41.0, 47.0, 53.0, 59.0]
+    assert df["maneuver_type"].astype(str).str.startswith("3211").all()
+
+
+def test_simulate_channels_format_writes_a_record_directory(tmp_path, capsys):
+    out = tmp_path / "record"
+    assert main(["simulate", "--aircraft", "c172p", "--maneuvers", "1", "--mix", "doublet=1",
+                 "--altitudes", "1000", "--airspeeds", "45", "--workers", "1",
+                 "--format", "channels", "--real-like", "-o", str(out)]) == 0
+    assert (out / "mapping.toml").is_file() and (out / "ias.txt").is_file()
+    header = (out / "truth.csv").read_text().splitlines()[0].split(",")
+    assert {"wind_n", "wind_e", "wind_d"} <= set(header)  # --real-like flies in wind
+    assert (out / "heading.txt").read_text() == "" and not (out / "beta.txt").exists()
+    assert "1 of 1 maneuvers kept" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--aircraft", "spitfire"], "unknown aircraft 'spitfire'"),
     (["--maneuvers", "0"], "argument --maneuvers: expected an integer >= 1, got '0'"),
     (["--noise-scale", "-1"], "argument --noise-scale: expected a number >= 0, got '-1'"),
+    (["--wind", "1,2,3"], "--wind takes LOW,HIGH [m/s]"),
+    (["--wind", "10,5"], "Wind.speed_mps must be (low, high)"),
+    (["--ideal-sensors", "--real-like"], "contradict each other"),
 ])
 def test_simulate_errors_are_one_line_messages(tmp_path, capsys, argv, message):
     code = main(["simulate", *argv, "-o", str(tmp_path / "c.parquet"), "--workers", "1"])

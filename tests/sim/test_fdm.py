@@ -22,7 +22,7 @@ def _spec(aircraft: str, kind: str) -> dict:
             "design": design_maneuver(kind, prof, np.random.default_rng(5), (15.0, 15.0)),
             "h_m": 4000.0, "tas_mps": 200.0, "h_nominal": 4000.0, "tas_nominal": 200.0,
             "psi_rad": 0.3, "fuel_fraction": 0.8, "seed": 0, "min_kept_s": 3.0,
-            "pilot_delay_s": 0.2}
+            "pilot": {"delay_s": 0.2}}
 
 
 def test_switching_idle_models_off_changes_nothing(monkeypatch):

@@ -13,6 +13,7 @@ from simplexspline.sim.maneuvers import (
     LEAD_S,
     design_maneuver,
     excitation,
+    peak_factor,
     multisine,
     pulse_shape,
 )
@@ -45,7 +46,7 @@ def test_multisine_unit_rms_and_spectrum():
     assert s[0] == 0.0 and abs(s[-1]) < 1e-3  # tapered ends
 
 
-@pytest.mark.parametrize("aircraft", ["f16", "global5000"])
+@pytest.mark.parametrize("aircraft", ["f16", "global5000", "c172p", "A4"])
 def test_designs_respect_the_profile(aircraft, rng):
     prof = get_aircraft(aircraft)
     for kind in MANEUVER_TYPES:
@@ -84,3 +85,40 @@ def test_excitation_amplitude_is_capped_and_signed():
 def test_unknown_maneuver_type():
     with pytest.raises(InputError, match="unknown maneuver type 'loop'"):
         design_maneuver("loop", get_aircraft("f16"), np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("aircraft", ["f16", "c172p"])
+def test_alternative_design_differs_from_the_paper(aircraft):
+    """Longer 3211 pulses, fewer sines evenly spread in a narrower band, lower peak factor."""
+    prof = get_aircraft(aircraft)
+    paper = [design_maneuver("3211-elevator", prof, np.random.default_rng(i))
+             for i in range(20)]
+    alt = [design_maneuver("3211-elevator", prof, np.random.default_rng(i), design="alternative")
+           for i in range(20)]
+    lo, hi = prof.pulse_unit_s
+    assert all(0.5 * (lo + hi) <= d["unit_s"] <= 1.6 * hi for d in alt)
+    assert np.mean([d["unit_s"] for d in alt]) > np.mean([d["unit_s"] for d in paper])
+    crest = {}
+    for design in ("paper", "alternative"):
+        sos = [design_maneuver("sum-of-sines", prof, np.random.default_rng(i), design=design)
+               for i in range(6)]
+        crest[design] = np.mean([peak_factor(f, ph, d["signal_s"]) for d in sos
+                                 for f, ph in zip(d["freqs_hz"], d["phases"])])
+        n = [len(f) for d in sos for f in d["freqs_hz"]]
+        assert set(n) == ({16} if design == "paper" else {10})
+    assert crest["alternative"] < crest["paper"]
+    band_lo, band_hi = prof.sos_band_hz
+    assert all(1.5 * band_lo - 0.02 <= x <= 0.7 * band_hi + 0.02 for d in sos
+               for f in d["freqs_hz"] for x in f)
+
+
+def test_peak_factor_of_one_sine_and_of_aligned_sines():
+    assert peak_factor([0.5], [0.0], 10.0) == pytest.approx(1.0, rel=1e-3)
+    # n sines in phase at t = 0 (cosines) peak at n with RMS sqrt(n / 2): factor sqrt(n)
+    assert peak_factor([0.1, 0.2, 0.3, 0.4], [math.pi / 2] * 4, 10.0) == pytest.approx(2.0)
+
+
+def test_unknown_excitation_design():
+    with pytest.raises(InputError, match="unknown excitation design 'mine'"):
+        design_maneuver("3211-rudder", get_aircraft("f16"), np.random.default_rng(0),
+                        design="mine")

@@ -5,12 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simplexspline.sim.pilot import Actuator, AircraftState, Pilot
+from simplexspline.errors import InputError
+from simplexspline.sim.pilot import Actuator, AircraftState, Airframe, Pilot, PilotStyle, Turn
 
 TRIM = {"theta": 0.05, "phi": 0.0, "psi": 1.0, "h": 3000.0, "tas": 150.0, "de": -0.02,
         "da": 0.0, "dr": 0.0, "throttle": 0.5}
-ARGS = dict(bandwidth=(2.0, 2.5), damping=(3.0, 3.0, 1.5), control_power=(-0.5, 0.05, -0.05),
-            geometry=(27.9, 9.1, 3.45), delay_s=0.0)
+AIRFRAME = Airframe(bandwidth=(2.0, 2.5), damping=(3.0, 3.0, 1.5),
+                    control_power=(-0.5, 0.05, -0.05), geometry=(27.9, 9.1, 3.45))
+ARGS = dict(airframe=AIRFRAME, style=PilotStyle(delay_s=0.0))
 STATE = AircraftState(theta=0.05, phi=0.0, psi=1.0, p=0.0, q=0.0, r=0.0, h=3000.0, tas=150.0,
                       vd=0.0, qbar=10000.0, ixx=1.3e4, iyy=7.5e4, izz=8.5e4, alpha=0.05, nz=1.0)
 
@@ -71,7 +73,7 @@ def test_envelope_protection_pushes_back():
 
 
 def test_pilot_delay():
-    pilot = Pilot("pilot", TRIM, **{**ARGS, "delay_s": 0.2})
+    pilot = Pilot("pilot", TRIM, **{**ARGS, "style": PilotStyle(delay_s=0.2)})
     out = [pilot.command(STATE._replace(theta=0.0))[0] for _ in range(25)]
     # the rate damper acts at once (q = 0 here), the attitude correction 0.2 s late
     assert out[0] == pytest.approx(TRIM["de"])
@@ -81,7 +83,24 @@ def test_pilot_delay():
 
 
 def test_pilot_rolls_into_a_turn_after_the_lead():
-    pilot = Pilot("pilot", TRIM, bank=0.5, bank_start_s=1.0, **ARGS)
+    pilot = Pilot("pilot", TRIM, turn=Turn(bank=0.5, start_s=1.0), **ARGS)
     das = [pilot.command(STATE)[1] for _ in range(150)]
     assert max(abs(d) for d in das[:95]) < 1e-12
     assert das[-1] > 0  # right-wing-down demand
+
+
+def test_relaxed_pilot_corrects_more_gently():
+    """A 0.7x bandwidth asks for 0.49x the correction of the same attitude error."""
+    soft_style = PilotStyle(delay_s=0.0, bandwidth_scale=0.7)
+    for k, error, trim in ((0, STATE._replace(theta=0.0), TRIM["de"]),
+                           (1, STATE._replace(phi=0.1), TRIM["da"])):
+        firm = Pilot("pilot", TRIM, **ARGS).command(error)[k] - trim
+        soft = Pilot("pilot", TRIM, AIRFRAME, style=soft_style).command(error)[k] - trim
+        assert abs(firm) > 1e-4
+        assert soft == pytest.approx(0.49 * firm, rel=1e-9)
+
+
+@pytest.mark.parametrize("field", ["delay_s", "bandwidth_scale", "heading_gain"])
+def test_pilot_style_rejects_bad_values(field):
+    with pytest.raises(InputError, match=f"PilotStyle.{field} must be a number"):
+        PilotStyle(**{field: float("nan")})

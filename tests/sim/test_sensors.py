@@ -95,3 +95,90 @@ def test_round_trip_and_scaling():
 def test_invalid_sensor_settings(kwargs, match):
     with pytest.raises(InputError, match=match):
         SensorModel(**kwargs)
+
+
+def _flight(n: int = 500) -> tuple[dict, np.ndarray]:
+    """A plausible state history: 150 m/s, pitching, rolling and yawing."""
+    t = np.arange(n) * 0.01
+    true = {ch: np.zeros(n) for ch in MEASURED_CHANNELS}
+    true.update(alpha=0.05 + 0.03 * np.sin(2 * t), beta=0.02 * np.sin(3 * t),
+                tas=np.full(n, 150.0), p=0.3 * np.sin(1.5 * t), q=0.1 * np.cos(2 * t),
+                r=0.05 * np.sin(t), pdot=0.45 * np.cos(1.5 * t), qdot=-0.2 * np.sin(2 * t),
+                rdot=0.05 * np.cos(t), ax=np.full(n, 0.5), ay=np.zeros(n),
+                az=np.full(n, -9.8))
+    return true, t
+
+
+def test_vanes_ahead_of_the_cg_see_rate_induced_angles(rng):
+    """To first order alpha_vane = alpha - q x/V + p y/V, beta_vane = beta + r x/V - p z/V."""
+    true, t = _flight()
+    x, y, z = 6.0, 0.4, -0.5
+    ideal = {ch: 0.0 for ch in MEASURED_CHANNELS}
+    sm = SensorModel(noise_std=ideal, bias=ideal,
+                     alpha_vane={"position_m": [x, y, z]}, beta_vane={"position_m": [x, y, z]})
+    out = sm.apply(true, t, rng)
+    V = true["tas"]
+    assert np.allclose(out["alpha"], true["alpha"] - true["q"] * x / V + true["p"] * y / V,
+                       atol=2e-4)
+    assert np.allclose(out["beta"], true["beta"] + true["r"] * x / V - true["p"] * z / V,
+                       atol=2e-4)
+    assert np.abs(out["alpha"] - true["alpha"]).max() > 3e-3  # the effect is not negligible
+    assert out["tas"] is not true["tas"] and np.array_equal(out["tas"], true["tas"])
+
+
+def test_vane_calibration_scale_and_offset(rng):
+    true, t = _flight()
+    ideal = {ch: 0.0 for ch in MEASURED_CHANNELS}
+    sm = SensorModel(noise_std=ideal, bias=ideal,
+                     alpha_vane={"scale": 1.05, "offset_rad": 0.01})
+    out = sm.apply(true, t, rng)
+    assert np.allclose(out["alpha"], 1.05 * true["alpha"] + 0.01, atol=1e-12)
+    assert np.array_equal(out["beta"], true["beta"])
+
+
+def test_imu_lever_arm_adds_rotational_accelerations(rng):
+    true, t = _flight()
+    ideal = {ch: 0.0 for ch in MEASURED_CHANNELS}
+    arm = np.array([2.0, -0.3, 0.5])
+    out = SensorModel(noise_std=ideal, bias=ideal, imu_position_m=arm).apply(true, t, rng)
+    w = np.column_stack([true["p"], true["q"], true["r"]])
+    wd = np.column_stack([true["pdot"], true["qdot"], true["rdot"]])
+    a = np.column_stack([true["ax"], true["ay"], true["az"]])
+    expected = a + np.cross(wd, arm) + np.cross(w, np.cross(w, arm))
+    assert np.allclose(np.column_stack([out["ax"], out["ay"], out["az"]]), expected,
+                       atol=1e-12)
+
+
+def test_sensor_geometry_metadata_follows_the_schema():
+    from simplexspline.aero.data.flight_data import sensor_geometry
+
+    assert SensorModel().sensor_geometry() is None
+    sm = SensorModel(alpha_vane={"position_m": [5.0, 0.0, 0.2], "scale": 1.03},
+                     imu_position_m=(0.5, 0.0, 0.1), lag_s={"alpha": 0.05, "qdot": 0.02})
+    meta = sm.sensor_geometry()
+    geo = sensor_geometry({"sensor_geometry": meta})
+    assert geo.alpha_vane.position_m == (5.0, 0.0, 0.2) and geo.alpha_vane.scale == 1.03
+    assert geo.imu_position_m == (0.5, 0.0, 0.1)
+    assert geo.lag_s == {"alpha": 0.05}  # qdot is no schema lag channel
+    assert SensorModel.from_dict(sm.to_dict()) == sm
+    assert sm.scaled(noise=2.0).alpha_vane == sm.alpha_vane
+    assert not sm.is_ideal
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"alpha_vane": {"scale": 0.0}}, "SensorModel: metadata sensor_geometry.alpha_vane.scale"),
+    ({"beta_vane": {"position_m": [1.0, 2.0]}}, "beta_vane.position_m must be three"),
+    ({"imu_position_m": (500.0, 0.0, 0.0)}, "within 100 m"),
+    ({"alpha_vane": {"chord": 1.0}}, "alpha_vane must be a mapping with keys"),
+])
+def test_invalid_sensor_geometry(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        SensorModel(**kwargs)
+
+
+def test_real_like_sensors_carry_geometry_and_lags():
+    sm = SensorModel.real_like()
+    meta = sm.sensor_geometry()
+    assert meta["alpha_vane"]["position_m"][0] > 0 and meta["alpha_vane"]["scale"] != 1.0
+    assert meta["lag_s"]["alpha"] > 0 and any(meta["imu"]["position_m"])
+    assert sm.noise_std == SensorModel().noise_std

@@ -34,7 +34,10 @@ from simplexspline.sim.campaign import (
     FlightProtocol,
     simulate_campaign,
 )
-from simplexspline.sim.maneuvers import MANEUVER_FAMILIES, MANEUVER_TYPES
+from simplexspline.sim.maneuvers import EXCITATION_DESIGNS, MANEUVER_FAMILIES, MANEUVER_TYPES
+from simplexspline.sim.pilot import PilotStyle
+from simplexspline.sim.record_export import write_channel_record
+from simplexspline.sim.wind import TURBULENCE_SEVERITY, Wind
 from simplexspline.sim.sensors import (
     DEFAULT_BIAS,
     DEFAULT_NOISE_STD,
@@ -46,8 +49,12 @@ __all__ = [
     "Campaign",
     "ConditionGrid",
     "FlightProtocol",
+    "PilotStyle",
     "simulate_campaign",
+    "write_channel_record",
     "SensorModel",
+    "Wind",
+    "TURBULENCE_SEVERITY",
     "Envelope",
     "AircraftProfile",
     "Surface",
@@ -61,5 +68,6 @@ __all__ = [
     "MEASURED_CHANNELS",
     "MANEUVER_FAMILIES",
     "MANEUVER_TYPES",
+    "EXCITATION_DESIGNS",
     "SURFACE_SIGN_CONVENTIONS",
 ]

@@ -2,10 +2,12 @@
 
 A profile is plain data (numbers, strings, tuples): it travels to worker processes as a
 dictionary (:meth:`AircraftProfile.to_dict`) and is rebuilt there, so nothing is pickled
-but builtins. The bundled profiles are ``f16`` and ``global5000``; :func:`get_aircraft`
-returns one, :func:`register_aircraft` adds your own.
+but builtins. The bundled profiles are ``f16`` (a fly-by-wire fighter with strongly
+nonlinear tables), ``global5000`` (a twin-jet business aircraft), ``c172p`` (a light
+single-piston aircraft, slow, with propeller slipstream) and ``A4`` (a subsonic light attack
+jet); :func:`get_aircraft` returns one, :func:`register_aircraft` adds your own.
 
-Sign conventions (JSBSim's, measured on both bundled models):
+Sign conventions (JSBSim's, measured on all four bundled models):
 
 * ``de`` > 0: elevator trailing edge down, nose-down pitching moment (dCm/dde < 0);
 * ``da`` > 0: positive (right-wing-down) rolling moment (dCl/dda > 0);
@@ -155,6 +157,10 @@ class AircraftProfile:
         Property recorded in the ``flap`` column [rad], or None.
     flap_scale : float
         Factor converting ``flap_property`` to radians.
+    loading : tuple of (str, float)
+        JSBSim properties set when the model is loaded, before the trim (payload, point-mass
+        positions). The paper's Eq. 46-48 assume a symmetric aircraft (Ixy = Iyz = 0): put
+        off-centre point masses on the centreline here.
     """
 
     name: str
@@ -180,6 +186,7 @@ class AircraftProfile:
     schedules: tuple = ()
     flap_property: str | None = None
     flap_scale: float = 1.0
+    loading: tuple = ()
     notes: str = field(default="", compare=False)
 
     @property
@@ -207,6 +214,7 @@ class AircraftProfile:
                     "sas_damping", "fuel_fraction"):
             d[key] = tuple(d[key])
         d["pulse_accel"] = tuple(tuple(a) for a in d["pulse_accel"])
+        d["loading"] = tuple((str(p), float(v)) for p, v in d.get("loading", ()))
         return cls(**d)
 
     def replace(self, **changes) -> AircraftProfile:
@@ -274,7 +282,74 @@ _GLOBAL5000 = AircraftProfile(
     flap_scale=math.pi / 180.0,
 )
 
-_REGISTRY: dict[str, AircraftProfile] = {"f16": _F16, "global5000": _GLOBAL5000}
+_C172P = AircraftProfile(
+    name="c172p",
+    model="c172p",
+    # a light single-piston aircraft with cable-driven controls; the aerodynamics read the
+    # left aileron only, the elevator magnitude (fcs/mag-elevator-pos-rad, which JSBSim
+    # derives from fcs/elevator-pos-rad itself) and the propeller slipstream
+    elevator=Surface(0.35, 80 * DEG, 0.05, (("fcs/elevator-pos-rad", 1.0),)),
+    aileron=Surface(0.30, 80 * DEG, 0.05, (("fcs/left-aileron-pos-rad", 1.0),)),
+    rudder=Surface(0.28, 80 * DEG, 0.05, (("fcs/rudder-pos-rad", 1.0),)),
+    throttles=("fcs/throttle-pos-norm",),
+    tanks=("propulsion/tank/contents-lbs", "propulsion/tank[1]/contents-lbs"),
+    # measured with JSBSim 1.3.3 at 500-2500 m, 40-55 m/s
+    control_power=(-1.40, 0.229, -0.055),
+    altitudes_m=(500.0, 1000.0, 1500.0, 2000.0, 2500.0),
+    airspeeds_mps=(38.0, 44.0, 50.0, 56.0, 62.0),
+    # alpha_max stays below the stall hysteresis (0.36 rad) and the model's alpha limit
+    envelope=Envelope(alpha_min=-5 * DEG, alpha_max=14 * DEG, beta_max=10 * DEG,
+                      phi_max=45 * DEG, theta_max=25 * DEG, nz_min=-0.5, nz_max=3.0,
+                      mach_max=0.25, h_min=100.0),
+    pulse_unit_s=(0.4, 0.9),
+    pulse_accel=((0.7, 2.0), (0.8, 2.4), (0.12, 0.4)),
+    pulse_qbar_ref=1500.0,
+    sos_accel_rms=(0.3, 0.8, 0.12),
+    sos_band_hz=(0.08, 1.8),
+    sos_bank=30 * DEG,
+    pilot_bandwidth=(1.5, 2.0),
+    sas_damping=(2.0, 2.0, 1.0),
+    flap_property="fcs/flap-pos-deg",
+    flap_scale=math.pi / 180.0,
+    # the model seats its 180 lbs pilot 14 in left of the centreline (Ixy, Iyz != 0, which
+    # the schema's inertia columns cannot carry): seated on the centreline instead
+    loading=tuple((f"inertia/pointmass-location-Y-inches[{i}]", 0.0) for i in range(4)),
+    notes="flaps up (flap column zero); propeller slipstream acts on the aerodynamics; "
+          "pilot seated on the centreline",
+)
+
+_A4 = AircraftProfile(
+    name="A4",
+    model="A4",
+    # a subsonic light attack jet with hydraulic controls and no fly-by-wire; the
+    # aerodynamics read the left aileron only
+    elevator=Surface(0.35, 50 * DEG, 0.06, (("fcs/elevator-pos-rad", 1.0),)),
+    aileron=Surface(0.30, 60 * DEG, 0.06, (("fcs/left-aileron-pos-rad", 1.0),)),
+    rudder=Surface(0.30, 60 * DEG, 0.06, (("fcs/rudder-pos-rad", 1.0),)),
+    throttles=("fcs/throttle-pos-norm",),
+    tanks=("propulsion/tank/contents-lbs",),
+    # measured with JSBSim 1.3.3 at 1500-7500 m, 120-240 m/s (dCm/dde falls with Mach)
+    control_power=(-0.42, 0.090, -0.100),
+    altitudes_m=(1500.0, 3000.0, 4500.0, 6000.0, 7500.0, 9000.0, 10500.0),
+    airspeeds_mps=(130.0, 160.0, 190.0, 220.0, 250.0),
+    envelope=Envelope(alpha_min=-6 * DEG, alpha_max=20 * DEG, beta_max=8 * DEG,
+                      phi_max=60 * DEG, theta_max=45 * DEG, nz_min=-1.5, nz_max=5.5,
+                      mach_max=0.85, h_min=300.0),
+    pulse_unit_s=(0.3, 0.8),
+    pulse_accel=((0.3, 0.9), (1.0, 3.0), (0.15, 0.5)),
+    pulse_qbar_ref=12000.0,
+    sos_accel_rms=(0.25, 0.7, 0.12),
+    sos_band_hz=(0.08, 2.0),
+    sos_bank=45 * DEG,
+    pilot_bandwidth=(1.8, 2.2),
+    sas_damping=(2.5, 2.5, 1.2),
+    flap_property="fcs/flap-pos-deg",
+    flap_scale=math.pi / 180.0,
+    notes="flaps up (flap column zero); speed brake retracted",
+)
+
+_REGISTRY: dict[str, AircraftProfile] = {"f16": _F16, "global5000": _GLOBAL5000,
+                                         "c172p": _C172P, "A4": _A4}
 
 
 def available_aircraft() -> list[str]:

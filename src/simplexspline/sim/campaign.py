@@ -20,7 +20,7 @@ import os
 import sys
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
@@ -32,7 +32,10 @@ from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile, Envelope, get_aircraft
 from simplexspline.sim.campaign_table import assemble
 from simplexspline.sim.flight import simulate_maneuver, trim_condition
-from simplexspline.sim.maneuvers import AXES, MANEUVER_FAMILIES, design_maneuver
+from simplexspline.sim.maneuvers import (AXES, EXCITATION_DESIGNS, MANEUVER_FAMILIES,
+                                         design_maneuver)
+from simplexspline.sim.pilot import PilotStyle
+from simplexspline.sim.wind import Wind
 from simplexspline.sim.sensors import SensorModel
 
 __all__ = ["Campaign", "ConditionGrid", "FlightProtocol", "simulate_campaign", "DEFAULT_MIX",
@@ -102,6 +105,22 @@ class ConditionGrid:
             if values is not None:
                 object.__setattr__(self, name, tuple(_grid(values, name).tolist()))
 
+    @classmethod
+    def between(cls, aircraft: str | AircraftProfile, jitter: bool = True) -> ConditionGrid:
+        """The midpoints of the profile's default grid: conditions not used in development.
+
+        Examples
+        --------
+        >>> ConditionGrid.between("global5000").airspeeds_mps
+        (132.5, 157.5, 182.5, 207.5, 232.5)
+        """
+        profile = get_aircraft(aircraft)
+        mids = []
+        for values in (profile.altitudes_m, profile.airspeeds_mps):
+            a = np.sort(np.asarray(values, dtype=float))
+            mids.append(0.5 * (a[1:] + a[:-1]) if a.size > 1 else a)
+        return cls(mids[0].tolist(), mids[1].tolist(), jitter)
+
     def values(self, profile: AircraftProfile) -> tuple[np.ndarray, np.ndarray]:
         """Sorted altitudes (m,) [m] and airspeeds (k,) [m/s]; the profile's where not given."""
         return (_grid(profile.altitudes_m if self.altitudes_m is None else self.altitudes_m,
@@ -127,9 +146,21 @@ class FlightProtocol:
         (load factor and angle of attack above their 1 g values); the others are straight
         and level as in the paper. 0 reproduces the paper's protocol exactly.
     pilot_delay_s : float
-        Reaction delay of the pilot model [s].
+        Reaction delay of the pilot model [s] (the ``delay_s`` of ``pilot``; give it in one
+        place).
     min_kept_s : float
         A maneuver cut at the envelope earlier than this is dropped entirely [s].
+    design : {'paper', 'alternative'}
+        Excitation design (:data:`~simplexspline.sim.maneuvers.EXCITATION_DESIGNS`): the
+        paper's, which the project was developed on, or a different one (other pulse units,
+        frequency band and low-peak-factor multisines) to test generalisation.
+    pilot : PilotStyle, optional
+        How the pilot model flies (default ``PilotStyle(delay_s=pilot_delay_s)``).
+
+    Examples
+    --------
+    >>> FlightProtocol.alternative().design, FlightProtocol.alternative().pilot.delay_s
+    ('alternative', 0.35)
     """
 
     mix: Mapping[str, float] | None = None
@@ -137,6 +168,22 @@ class FlightProtocol:
     turn_fraction: float = 0.5
     pilot_delay_s: float = 0.2
     min_kept_s: float = 3.0
+    design: str = "paper"
+    pilot: PilotStyle | None = None
+
+    @classmethod
+    def alternative(cls, **changes) -> FlightProtocol:
+        """3211s and sum-of-sines of the alternative design flown by a relaxed pilot.
+
+        A protocol the identification was not developed on: other pulse units, another
+        frequency band and number of sines, phases optimised for a low peak factor, and
+        :meth:`PilotStyle.relaxed`; ``changes`` override any field.
+        """
+        settings = {"mix": {"3211": 0.5, "sum-of-sines": 0.5}, "design": "alternative",
+                    "pilot": PilotStyle.relaxed(), **changes}
+        if "pilot_delay_s" in changes and "pilot" not in changes:
+            settings["pilot"] = replace(settings["pilot"], delay_s=changes["pilot_delay_s"])
+        return cls(**settings)
 
     def __post_init__(self):
         mix = dict(DEFAULT_MIX if self.mix is None else self.mix)
@@ -163,6 +210,17 @@ class FlightProtocol:
         if not (10.0 <= lo <= hi):
             raise InputError("sos_duration_s must be (low, high) with 10 <= low <= high")
         object.__setattr__(self, "sos_duration_s", (lo, hi))
+        if self.design not in EXCITATION_DESIGNS:
+            raise InputError(f"unknown excitation design {self.design!r}: choose one of "
+                             f"{list(EXCITATION_DESIGNS)}")
+        if self.pilot is None:
+            object.__setattr__(self, "pilot", PilotStyle(delay_s=float(self.pilot_delay_s)))
+        elif not isinstance(self.pilot, PilotStyle):
+            raise InputError("pilot must be a simplexspline.sim.PilotStyle")
+        elif self.pilot_delay_s not in (0.2, self.pilot.delay_s):
+            raise InputError(f"pilot_delay_s = {self.pilot_delay_s} differs from the pilot's "
+                             f"delay_s = {self.pilot.delay_s}: give the delay in one place")
+        object.__setattr__(self, "pilot_delay_s", float(self.pilot.delay_s))
 
 
 class Campaign:
@@ -190,6 +248,9 @@ class Campaign:
         ``SensorModel.ideal()`` for perfect sensors.
     envelope : Envelope, optional
         Limits of kept data (default: the profile's).
+    wind : Wind, optional
+        Steady wind and turbulence, drawn per maneuver (default: still air). The trimmed
+        air-relative state is kept; the true wind is recorded in ``true_wind_n/e/d``.
 
     Examples
     --------
@@ -204,7 +265,8 @@ class Campaign:
     def __init__(self, aircraft: str | AircraftProfile = "f16", *, maneuvers: int = 250,
                  maneuvers_per_condition: int | None = None, seed: int = 0,
                  grid: ConditionGrid | None = None, protocol: FlightProtocol | None = None,
-                 sensors: SensorModel | None = None, envelope: Envelope | None = None):
+                 sensors: SensorModel | None = None, envelope: Envelope | None = None,
+                 wind: Wind | None = None):
         self.aircraft = aircraft
         self.maneuvers = maneuvers
         self.maneuvers_per_condition = maneuvers_per_condition
@@ -213,6 +275,7 @@ class Campaign:
         self.protocol = FlightProtocol() if protocol is None else protocol
         self.sensors = sensors
         self.envelope = envelope
+        self.wind = wind
 
     # ------------------------------------------------------------------ validation
     def _settings(self) -> dict:
@@ -227,6 +290,8 @@ class Campaign:
             raise InputError("grid must be a simplexspline.sim.ConditionGrid")
         if not isinstance(self.protocol, FlightProtocol):
             raise InputError("protocol must be a simplexspline.sim.FlightProtocol")
+        if self.wind is not None and not isinstance(self.wind, Wind):
+            raise InputError("wind must be a simplexspline.sim.Wind or None")
         alts, tas = self.grid.values(profile)
         if self.maneuvers_per_condition is None:
             if int(self.maneuvers) != self.maneuvers or self.maneuvers < 1:
@@ -283,7 +348,7 @@ class Campaign:
             design_rng = np.random.default_rng(
                 np.random.SeedSequence(int(self.seed), spawn_key=(1, i)).spawn(2)[0])
             design = design_maneuver(kinds[i], profile, design_rng, protocol.sos_duration_s,
-                                     float(protocol.turn_fraction))
+                                     float(protocol.turn_fraction), protocol.design)
             jh, jv = design_rng.uniform(-1.0, 1.0, 2)
             h, v = c["h_m"], c["tas_mps"]
             if self.grid.jitter:
@@ -299,8 +364,11 @@ class Campaign:
                 "psi_rad": float(design_rng.uniform(-math.pi, math.pi)),
                 "fuel_fraction": float(design_rng.uniform(*profile.fuel_fraction)),
                 "seed": int(self.seed), "min_kept_s": float(protocol.min_kept_s),
-                "pilot_delay_s": float(protocol.pilot_delay_s), "scratch": scratch,
+                "pilot": protocol.pilot.to_dict(), "scratch": scratch,
             })
+            if self.wind is not None:  # its own stream: still-air campaigns are unchanged
+                specs[-1]["wind"] = self.wind.draw(np.random.default_rng(
+                    np.random.SeedSequence(int(self.seed), spawn_key=(2, i))))
         return specs
 
     # ------------------------------------------------------------------ running

@@ -95,9 +95,11 @@ def assemble(results: list, conditions: list, st: dict, campaign):
                 "mix": dict(protocol.mix), "sos_duration_s": list(protocol.sos_duration_s),
                 "turn_fraction": float(protocol.turn_fraction),
                 "jitter": bool(campaign.grid.jitter), "pilot_delay_s": protocol.pilot_delay_s,
-                "min_kept_s": protocol.min_kept_s,
+                "min_kept_s": protocol.min_kept_s, "design": protocol.design,
+                "pilot_style": protocol.pilot.to_dict(),
             },
             "sensors": sensors.to_dict(),
+            "wind": None if campaign.wind is None else campaign.wind.to_dict(),
             "envelope": env.to_dict(),
             "actuators": {name: {"limit_rad": s.limit, "rate_rad_s": s.rate, "tau_s": s.tau}
                           for name, s in zip(("elevator", "aileron", "rudder"),
@@ -116,6 +118,9 @@ def assemble(results: list, conditions: list, st: dict, campaign):
         "conditions": conditions,
         "maneuvers": logs,
     }
+    geometry = sensors.sensor_geometry()
+    if geometry is not None:
+        meta["sensor_geometry"] = geometry
     df.attrs = meta
     return df
 

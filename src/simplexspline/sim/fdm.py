@@ -14,11 +14,12 @@ import sys
 import tempfile
 from collections.abc import Iterator
 
-from simplexspline.errors import SimulationError
+from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile
 from simplexspline.sim.units import FT, KT
 
-__all__ = ["load_jsbsim", "quiet_scratch", "create_fdm", "trim_fdm", "RECORD", "Recorder"]
+__all__ = ["load_jsbsim", "quiet_scratch", "create_fdm", "trim_fdm", "set_wind", "RECORD",
+           "Recorder"]
 
 #: Properties read after every ``run()`` (one 100 Hz sample), in JSBSim units. After
 #: ``run()`` JSBSim's state, forces, moments and accelerations all refer to the same
@@ -41,6 +42,8 @@ RECORD: tuple[str, ...] = (
     "inertia/izz-slugs_ft2", "inertia/ixz-slugs_ft2",
     "position/lat-geod-rad", "position/long-gc-rad", "position/h-sl-ft",
     "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps",
+    "atmosphere/total-wind-north-fps", "atmosphere/total-wind-east-fps",
+    "atmosphere/total-wind-down-fps",
 )
 #: JSBSim models switched off after the trim because they contribute exactly nothing here
 #: (outputs stay bit-identical; a step gets about 40 % cheaper): ground reactions are zero
@@ -116,6 +119,12 @@ def create_fdm(profile: AircraftProfile, fuel_fraction: float = 1.0):
     fdm.set_dt(0.01)
     for tank in profile.tanks:
         fdm[tank] = fdm[tank] * float(fuel_fraction)
+    pm = fdm.get_property_manager()
+    for name, value in profile.loading:
+        if not pm.hasNode(name):
+            raise InputError(f"{profile.name}: loading property {name!r} does not exist in "
+                                  f"model {profile.model!r}; fix the aircraft profile")
+        fdm[name] = float(value)
     return fdm
 
 
@@ -165,6 +174,51 @@ def trim_fdm(profile: AircraftProfile, h_m: float, tas_mps: float, psi_rad: floa
     for model in IDLE_MODELS:
         fdm[f"simulation/models/{model}/enabled"] = 0
     return fdm
+
+
+def set_wind(fdm, ned_mps, severity: int = 0, seed: int = 1) -> None:
+    """Put a trimmed model into a steady wind (plus turbulence) without losing the trim.
+
+    JSBSim's trim leaves the wind at zero, and a wind set afterwards changes the airspeed
+    by the wind. Here the model is re-initialised at the trimmed position, attitude and
+    Earth-relative velocity *air velocity + wind*, then the wind is set and the derivatives
+    recomputed without integrating: the air-relative state (airspeed, alpha, beta), hence
+    forces and moments, are those of the trim (run_ic itself zeroes the wind).
+
+    Parameters
+    ----------
+    fdm : jsbsim.FGFDMExec
+        Trimmed (FCS off, as :func:`trim_fdm` leaves it), before its first ``run()``.
+    ned_mps : (3,) sequence of float
+        Steady wind towards north, east, down [m/s].
+    severity : int
+        MIL-F-8785C turbulence probability-of-exceedance index (0: no turbulence).
+    seed : int
+        JSBSim random seed of the turbulence.
+    """
+    wind = [float(w) / FT for w in ned_mps]
+    for name in ("phi", "theta"):
+        fdm[f"ic/{name}-rad"] = fdm[f"attitude/{name}-rad"]
+    fdm["ic/psi-true-rad"] = fdm["attitude/psi-rad"]
+    fdm["ic/lat-geod-deg"] = fdm["position/lat-geod-deg"]
+    fdm["ic/long-gc-deg"] = fdm["position/long-gc-deg"]
+    fdm["ic/h-sl-ft"] = fdm["position/h-sl-ft"]
+    ground = [fdm[f"velocities/v-{d}-fps"] + w for d, w in zip(("north", "east", "down"), wind)]
+    fdm["ic/vn-fps"], fdm["ic/ve-fps"], fdm["ic/vd-fps"] = ground
+    fdm["ic/p-rad_sec"] = fdm["ic/q-rad_sec"] = fdm["ic/r-rad_sec"] = 0.0
+    fdm.run_ic()
+    for d, w in zip(("north", "east", "down"), wind):
+        fdm[f"atmosphere/wind-{d}-fps"] = w
+    if severity:
+        fdm["simulation/randomseed"] = int(seed)
+        fdm["atmosphere/turb-type"] = 3  # MIL-F-8785C (Dryden form)
+        fdm["atmosphere/turbulence/milspec/severity"] = int(severity)
+        fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = math.hypot(*wind[:2])
+    # run_ic left derivatives computed in still air (a sideslip of wind/V): recompute them in
+    # the wind without integrating, or the first step would integrate that sideslip's moments
+    fdm.suspend_integration()
+    fdm.run()
+    fdm.resume_integration()
 
 
 class Recorder:

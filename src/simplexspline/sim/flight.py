@@ -16,9 +16,10 @@ import numpy as np
 from simplexspline.errors import SimulationError
 from simplexspline.sim import units as u
 from simplexspline.sim.aircraft import AircraftProfile, Envelope
-from simplexspline.sim.fdm import IDX, Recorder, quiet_scratch, trim_fdm
+from simplexspline.sim.fdm import IDX, Recorder, quiet_scratch, set_wind, trim_fdm
 from simplexspline.sim.maneuvers import LEAD_S, excitation
-from simplexspline.sim.pilot import Actuator, AircraftState, Pilot
+from simplexspline.sim.pilot import (Actuator, AircraftState, Airframe, Pilot, PilotStyle,
+                                     Turn)
 from simplexspline.sim.sensors import SensorModel
 
 __all__ = ["simulate_maneuver", "trim_condition", "DT"]
@@ -115,8 +116,10 @@ def simulate_maneuver(spec: dict) -> dict:
     spec : dict
         ``index``, ``condition``, ``profile`` (dict), ``envelope`` (dict), ``sensors``
         (dict), ``design`` (dict from :func:`~simplexspline.sim.maneuvers.design_maneuver`),
-        ``h_m``, ``tas_mps`` (jittered trim point), ``h_nominal``, ``tas_nominal``,
-        ``psi_rad``, ``fuel_fraction``, ``seed`` (int), ``min_kept_s``, ``pilot_delay_s``,
+        ``h_m``, ``tas_mps`` (jittered trim point), ``h_nominal``, ``tas_nominal``, optional
+        ``wind`` (from :meth:`~simplexspline.sim.wind.Wind.draw`),
+        ``psi_rad``, ``fuel_fraction``, ``seed`` (int), ``min_kept_s``, ``pilot`` (dict of
+        :class:`~simplexspline.sim.pilot.PilotStyle`),
         optional ``scratch``.
 
     Returns
@@ -147,6 +150,10 @@ def simulate_maneuver(spec: dict) -> dict:
             except SimulationError as exc:
                 log.update(status="trim-failed", reason=str(exc))
                 return {"columns": {}, "log": log}
+        wind = spec.get("wind")
+        if wind:
+            set_wind(fdm, wind["ned_mps"], wind["severity"], wind["seed"])
+            log["wind_ned_mps"] = list(wind["ned_mps"])
         raw, surf, reason = _fly(fdm, profile, env, design, spec, n)
     kept = len(raw)
     log["duration_s"] = kept * DT
@@ -194,10 +201,8 @@ def _fly(fdm, profile: AircraftProfile, env: Envelope, design: dict, spec: dict,
         "phi": 0.7 * env.phi_max,
     }
     pilot = Pilot("pilot" if design["family"] == "sum-of-sines" else "autopilot", trim,
-                  profile.pilot_bandwidth, profile.sas_damping, profile.control_power,
-                  geometry, bank=design.get("bank", 0.0), bank_start_s=LEAD_S,
-                  protection=protection,
-                  delay_s=spec["pilot_delay_s"], dt=DT)
+                  Airframe.of(profile, geometry), style=PilotStyle(**spec["pilot"]),
+                  turn=Turn(design.get("bank", 0.0), LEAD_S), protection=protection, dt=DT)
     acts = [Actuator(d, sf.limit, sf.rate, sf.tau, DT)
             for d, sf in zip(trim_surf, profile.surfaces)]
     schedules = rec.schedule_writers
@@ -337,4 +342,7 @@ def _columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dict,
         "true_CL": cx * sa - cz * ca,
         "true_CD": -(cx * ca * cb + cy * sb + cz * sa * cb),
     })
+    if spec.get("wind"):  # steady wind + turbulence, towards north, east, down
+        for axis, d in (("n", "north"), ("e", "east"), ("d", "down")):
+            out[f"true_wind_{axis}"] = col[f"atmosphere/total-wind-{d}-fps"] * u.FT
     return out

@@ -23,6 +23,7 @@ __all__ = [
     "AXES",
     "MANEUVER_FAMILIES",
     "MANEUVER_TYPES",
+    "EXCITATION_DESIGNS",
     "design_maneuver",
     "excitation",
     "pulse_shape",
@@ -37,6 +38,17 @@ MANEUVER_FAMILIES = ("3211", "doublet", "sum-of-sines")
 MANEUVER_TYPES = tuple(f"{fam}-{ax}" for fam in ("3211", "doublet") for ax in AXES) + (
     "sum-of-sines",
 )
+
+#: Excitation designs: the paper's (the project was developed on it) and an alternative one.
+EXCITATION_DESIGNS = {
+    "paper": "3211 pulse units from the profile's range, doublets at 1.5-2x that; 16 sines "
+             "per axis log-spread over the profile's band, random phases",
+    "alternative": "3211 pulse units from the upper half of the profile's range to 1.6x its "
+                   "top, doublets at 0.7-1.2x; 10 sines per axis evenly spread over a band "
+                   "shifted to 1.5x-0.7x the profile's, phases chosen for a low peak factor",
+}
+ALT_SOS_COMPONENTS = 10  #: sinusoids per axis in the alternative design
+ALT_PHASE_TRIALS = 32  #: random phase sets tried per axis for a low peak factor
 
 LEAD_S = 2.0  #: trimmed flight recorded before the input starts [s]
 TAIL_S = 7.0  #: free response recorded after a pulse input [s]
@@ -112,8 +124,67 @@ def _sos_frequencies(rng: np.random.Generator, band: tuple, duration: float) -> 
     return out
 
 
+def _even_frequencies(band: tuple, duration: float) -> list:
+    """Evenly spread, axis-interleaved harmonic sets (the alternative design)."""
+    lo, hi = band
+    k0 = max(1, math.ceil(lo * duration))
+    k1 = max(k0 + 3 * ALT_SOS_COMPONENTS, math.floor(hi * duration))
+    out = []
+    for axis in range(3):
+        harmonics = np.arange(k0 + axis, k1 + 1, 3)
+        pick = np.unique(np.round(np.linspace(0, len(harmonics) - 1,
+                                              ALT_SOS_COMPONENTS)).astype(int))
+        out.append([float(h) / duration for h in harmonics[pick]])
+    return out
+
+
+def peak_factor(freqs_hz, phases, duration: float, n: int = 2000) -> float:
+    """Peak / (sqrt(2) RMS) of a multisine over one signal length (1 for a single sine)."""
+    t = np.linspace(0.0, duration, n, endpoint=False)
+    s = np.sin(2 * math.pi * np.outer(t, freqs_hz) + np.asarray(phases)).sum(axis=1)
+    return float(np.abs(s).max() / (math.sqrt(2.0) * np.sqrt(np.mean(s * s))))
+
+
+def _low_peak_phases(rng: np.random.Generator, freqs: list, duration: float) -> list:
+    """Of :data:`ALT_PHASE_TRIALS` random phase sets, the one with the lowest peak factor."""
+    trials = [rng.uniform(0, 2 * math.pi, len(freqs)) for _ in range(ALT_PHASE_TRIALS)]
+    best = min(range(ALT_PHASE_TRIALS), key=lambda j: peak_factor(freqs, trials[j], duration))
+    return trials[best].tolist()
+
+
+def _alternative_design(kind: str, profile: AircraftProfile, rng: np.random.Generator,
+                        sos_duration_s: tuple, turn_fraction: float) -> dict:
+    if kind == "sum-of-sines":
+        length = float(rng.uniform(*sos_duration_s))
+        lo, hi = profile.sos_band_hz
+        freqs = _even_frequencies((1.5 * lo, max(0.7 * hi, 3.0 * lo)), length)
+        phases = [_low_peak_phases(rng, f, length) for f in freqs]
+        scale = float(rng.uniform(0.7, 1.1))
+        rms = [scale * a for a in profile.sos_accel_rms]
+        turning = rng.random() < turn_fraction
+        bank = float(rng.uniform(0.2, 0.8) * profile.sos_bank * (1 if rng.random() < 0.5 else -1))
+        return {"type": kind, "family": "sum-of-sines", "axis": None,
+                "duration_s": LEAD_S + length + 1.0, "signal_s": length,
+                "freqs_hz": freqs, "phases": phases, "accel_rms": rms,
+                "bank": bank if turning else 0.0}
+    family, axis = kind.split("-", 1)
+    iaxis = AXES.index(axis)
+    lo, hi = profile.pulse_unit_s
+    lo, hi = (0.7 * lo, 1.2 * hi) if family == "doublet" else (0.5 * (lo + hi), 1.6 * hi)
+    unit = float(rng.uniform(lo, hi))
+    a_lo, a_hi = profile.pulse_accel[iaxis]
+    # longer pulses build up larger responses: amplitudes from the lower part of the range
+    amp = float(rng.uniform(0.6 * a_lo, 0.5 * (a_lo + a_hi))) * (1.0 if rng.random() < 0.5
+                                                                 else -1.0)
+    pattern = [3, 2, 1, 1] if family == "3211" else [1, 1]
+    return {"type": kind, "family": family, "axis": axis,
+            "duration_s": LEAD_S + sum(pattern) * unit + TAIL_S,
+            "unit_s": unit, "pattern": pattern, "accel": amp}
+
+
 def design_maneuver(kind: str, profile: AircraftProfile, rng: np.random.Generator,
-                    sos_duration_s: tuple = (90.0, 110.0), turn_fraction: float = 0.5) -> dict:
+                    sos_duration_s: tuple = (90.0, 110.0), turn_fraction: float = 0.5,
+                    design: str = "paper") -> dict:
     """Randomised input design for one maneuver.
 
     Parameters
@@ -129,6 +200,8 @@ def design_maneuver(kind: str, profile: AircraftProfile, rng: np.random.Generato
     turn_fraction : float
         Probability that a sum-of-sines maneuver is flown in a level turn (bank up to
         ``profile.sos_bank``) instead of straight and level.
+    design : str
+        One of :data:`EXCITATION_DESIGNS`.
 
     Returns
     -------
@@ -138,6 +211,11 @@ def design_maneuver(kind: str, profile: AircraftProfile, rng: np.random.Generato
     """
     if kind not in MANEUVER_TYPES:
         raise InputError(f"unknown maneuver type {kind!r}: choose one of {MANEUVER_TYPES}")
+    if design not in EXCITATION_DESIGNS:
+        raise InputError(f"unknown excitation design {design!r}: choose one of "
+                         f"{list(EXCITATION_DESIGNS)}")
+    if design == "alternative":
+        return _alternative_design(kind, profile, rng, sos_duration_s, turn_fraction)
     if kind == "sum-of-sines":
         length = float(rng.uniform(*sos_duration_s))
         freqs = _sos_frequencies(rng, profile.sos_band_hz, length)

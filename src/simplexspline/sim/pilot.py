@@ -22,9 +22,12 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from dataclasses import asdict, dataclass
 from typing import NamedTuple
 
-__all__ = ["Actuator", "AircraftState", "Pilot"]
+from simplexspline.errors import InputError
+
+__all__ = ["Actuator", "AircraftState", "Airframe", "Pilot", "PilotStyle", "Turn"]
 
 _G0 = 9.80665
 
@@ -95,6 +98,86 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
+class Airframe(NamedTuple):
+    """What the control laws know of the aircraft (from its profile and the FDM).
+
+    Attributes
+    ----------
+    bandwidth : (float, float)
+        Pitch and roll attitude-loop natural frequencies [rad/s] of the pilot.
+    damping : (float, float, float)
+        Pitch, roll and yaw rate-damper gains [1/s].
+    control_power : (float, float, float)
+        dCm/dde, dCl/dda, dCn/ddr [1/rad].
+    geometry : (float, float, float)
+        S [m^2], b [m], cbar [m].
+    """
+
+    bandwidth: tuple
+    damping: tuple
+    control_power: tuple
+    geometry: tuple
+
+    @classmethod
+    def of(cls, profile, geometry: tuple) -> Airframe:
+        """From an :class:`~simplexspline.sim.aircraft.AircraftProfile` and (S, b, cbar)."""
+        return cls(tuple(profile.pilot_bandwidth), tuple(profile.sas_damping),
+                   tuple(profile.control_power), tuple(geometry))
+
+
+@dataclass(frozen=True)
+class PilotStyle:
+    """How the pilot model flies: the protocol's choice, not the aircraft's.
+
+    The defaults are the pilot every campaign was developed with; :meth:`relaxed` is a
+    different pilot (lower bandwidth, longer delay, looser altitude and heading holds) to
+    judge identification on data it was not developed on.
+
+    Parameters
+    ----------
+    delay_s : float
+        Reaction delay of the human pilot's attitude loop [s] (pilot mode only).
+    bandwidth_scale : float
+        Factor on the profile's attitude-loop bandwidths in pilot mode [-].
+    autopilot_scale : float
+        Factor on the profile's attitude-loop bandwidths in autopilot mode [-].
+    altitude_gain : float
+        Climb-rate demand per metre of altitude error [1/s] (pilot mode).
+    heading_gain : float
+        Bank demand per radian of heading error [-] (pilot mode).
+    """
+
+    delay_s: float = 0.2
+    bandwidth_scale: float = 1.0
+    autopilot_scale: float = 0.4
+    altitude_gain: float = 0.12
+    heading_gain: float = 1.2
+
+    def __post_init__(self):
+        for name in ("delay_s", "bandwidth_scale", "autopilot_scale", "altitude_gain",
+                     "heading_gain"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= 60):
+                raise InputError(f"PilotStyle.{name} must be a number in [0, 60], got {v!r}")
+
+    @classmethod
+    def relaxed(cls) -> PilotStyle:
+        """A slower, later pilot with looser holds than the default one."""
+        return cls(delay_s=0.35, bandwidth_scale=0.7, autopilot_scale=0.25,
+                   altitude_gain=0.06, heading_gain=0.8)
+
+    def to_dict(self) -> dict:
+        """Plain-data form (for metadata and worker processes)."""
+        return asdict(self)
+
+
+class Turn(NamedTuple):
+    """A level turn the pilot rolls into (pilot mode)."""
+
+    bank: float = 0.0     #: bank angle held instead of the heading [rad]; 0 holds heading
+    start_s: float = 0.0  #: time at which the pilot starts rolling in [s]
+
+
 class Pilot:
     """SAS plus attitude/altitude/heading/speed hold, in angular-acceleration form.
 
@@ -104,26 +187,17 @@ class Pilot:
     trim : dict
         Trim point: ``theta``, ``phi``, ``psi`` [rad], ``h`` [m], ``tas`` [m/s], surface positions
         ``de``, ``da``, ``dr`` [rad], ``throttle`` [-].
-    bandwidth : (float, float)
-        Pitch and roll attitude-loop natural frequencies [rad/s] (pilot mode; the
-        autopilot uses 40 % of them).
-    damping : (float, float, float)
-        Pitch, roll and yaw rate-damper gains [1/s].
-    control_power : (float, float, float)
-        dCm/dde, dCl/dda, dCn/ddr [1/rad].
-    geometry : (float, float, float)
-        S [m^2], b [m], cbar [m].
-    bank : float
-        Bank angle the pilot holds in a level turn instead of holding the heading [rad]
-        (pilot mode; rolled in over :attr:`ROLL_IN_S` from ``bank_start_s``).
-    bank_start_s : float
-        Time at which the pilot starts rolling into the turn [s].
+    airframe : Airframe
+        Bandwidths, damper gains, control power and geometry.
+    style : PilotStyle, optional
+        Delay, bandwidth factors and hold gains (default ``PilotStyle()``).
+    turn : Turn, optional
+        Level turn to fly instead of holding the heading (pilot mode; rolled in over
+        :attr:`ROLL_IN_S` from ``turn.start_s``).
     protection : dict, optional
         Soft envelope protection of the flight control computer: ``nz`` (low, high) [-],
         ``alpha`` (low, high) [rad] and ``phi`` (largest bank) [rad] beyond which the SAS
         adds a restoring angular-acceleration demand (like a g/alpha limiter).
-    delay_s : float
-        Pilot reaction delay of the attitude loop [s] (pilot mode only).
     dt : float
         Step [s].
     """
@@ -133,16 +207,19 @@ class Pilot:
     K_PHI = 6.0  #: roll acceleration per rad beyond the bank protection [rad/s^2 / rad]
     ROLL_IN_S = 6.0  #: time to roll into a turn [s]
 
-    def __init__(self, mode: str, trim: dict, bandwidth: tuple, damping: tuple,
-                 control_power: tuple, geometry: tuple, bank: float = 0.0,
-                 bank_start_s: float = 0.0, protection: dict | None = None,
-                 delay_s: float = 0.2, dt: float = 0.01):
+    def __init__(self, mode: str, trim: dict, airframe: Airframe, *,
+                 style: PilotStyle | None = None, turn: Turn = Turn(),
+                 protection: dict | None = None, dt: float = 0.01):
+        style = PilotStyle() if style is None else style
         self.human = mode == "pilot"
-        factor = 1.0 if self.human else 0.4
+        factor = style.bandwidth_scale if self.human else style.autopilot_scale
+        bandwidth = airframe.bandwidth
         self.w2_theta = (factor * bandwidth[0]) ** 2
         self.w2_phi = (factor * bandwidth[1]) ** 2
-        self.kq, self.kp, self.kr = damping
-        S, b, c = geometry
+        self.kq, self.kp, self.kr = airframe.damping
+        self.k_h, self.k_psi = style.altitude_gain, style.heading_gain
+        S, b, c = airframe.geometry
+        control_power = airframe.control_power
         # deflection per angular acceleration and per (qbar / Pa) and inertia / kg m^2
         self.g_de = 1.0 / (S * c * control_power[0])
         self.g_da = 1.0 / (S * b * control_power[1])
@@ -159,11 +236,11 @@ class Pilot:
         self.nz_lo, self.nz_hi = prot.get("nz", (-math.inf, math.inf))
         self.alpha_lo, self.alpha_hi = prot.get("alpha", (-math.inf, math.inf))
         self.phi_lim = prot.get("phi", math.inf)
-        self.bank = float(bank) if self.human else 0.0
-        self.k = -int(round(bank_start_s / dt))
+        self.bank = float(turn.bank) if self.human else 0.0
+        self.k = -int(round(turn.start_s / dt))
         self.int_theta = 0.0
         self.int_v = 0.0
-        n_delay = int(round(delay_s / dt)) if self.human else 0
+        n_delay = int(round(style.delay_s / dt)) if self.human else 0
         # after an append, buffer[0] is the demand computed n_delay steps earlier
         self.buffer = (deque([(0.0, 0.0)] * (n_delay + 1), maxlen=n_delay + 1)
                        if n_delay else None)
@@ -185,7 +262,7 @@ class Pilot:
             tas = 1.0
         # --- outer loops: desired attitude --------------------------------------------
         if self.human:
-            hdot_cmd = 0.12 * (self.h_ref - h)
+            hdot_cmd = self.k_h * (self.h_ref - h)
             hdot_cmd = -8.0 if hdot_cmd < -8.0 else (8.0 if hdot_cmd > 8.0 else hdot_cmd)
             theta_ref = self.theta0 + (hdot_cmd + vd) / tas  # vd = -hdot
             if self.bank:
@@ -193,7 +270,7 @@ class Pilot:
                 x = self.k * self.dt / self.ROLL_IN_S
                 phi_ref = self.phi0 + self.bank * (0.0 if x < 0.0 else (1.0 if x > 1.0 else x))
             else:
-                x = 1.2 * _wrap(self.psi_ref - psi)
+                x = self.k_psi * _wrap(self.psi_ref - psi)
                 phi_ref = self.phi0 + (-0.35 if x < -0.35 else (0.35 if x > 0.35 else x))
         else:
             theta_ref = self.theta0

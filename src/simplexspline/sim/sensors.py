@@ -1,8 +1,13 @@
 """Sensor models of a flight-test instrumentation system.
 
-Each measured channel is ``measured(t) = true(t - lag) + bias + noise(t)`` with a constant
+Each measured channel is ``measured(t) = sensed(t - lag) + bias + noise(t)`` with a constant
 bias, zero-mean Gaussian white noise (independent per sample and channel) and an optional
 pure time lag (linear interpolation; the first value is held before the maneuver starts).
+``sensed`` is the true value at the c.g. except for the vanes and the accelerometers, which
+may sit elsewhere (sensor geometry, as metadata ``sensor_geometry`` of the flight-data
+schema describes it): a vane reads ``scale * (flow angle of the local air velocity
+V + omega x r) + offset``, the accelerometers the specific force at their position,
+``a_cg + omegadot x r + omega x (omega x r)``.
 The defaults are of the order of a flight-test instrumentation package with a
 navigation-grade IMU, vanes on a nose boom and a GPS receiver; they are listed in
 ``docs/flight-data-schema.md`` and written into every campaign's metadata.
@@ -16,8 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from simplexspline.aero.data.flight_data import LAG_CHANNELS, sensor_geometry
 from simplexspline.aero.variables import DEG
-from simplexspline.errors import InputError
+from simplexspline.errors import FlightDataError, InputError
 
 __all__ = ["SensorModel", "MEASURED_CHANNELS", "DEFAULT_NOISE_STD", "DEFAULT_BIAS"]
 
@@ -85,6 +91,13 @@ class SensorModel:
         Constant bias per channel; defaults :data:`DEFAULT_BIAS` (others zero).
     lag_s : mapping of str to float, optional
         Pure time lag per channel [s]; default zero everywhere.
+    alpha_vane, beta_vane : mapping, optional
+        Vane geometry and calibration as in metadata ``sensor_geometry`` of the flight-data
+        schema: ``position_m`` (x forward, y right, z down from the c.g.) [m], ``scale`` [-]
+        and ``offset_rad`` [rad]; default at the c.g., calibrated. The known ``offset_rad``
+        is recorded in the metadata; ``bias`` stays unknown.
+    imu_position_m : (3,) sequence of float, optional
+        Accelerometer position from the c.g. [m] (default at the c.g.).
 
     Examples
     --------
@@ -97,12 +110,30 @@ class SensorModel:
     noise_std: Mapping[str, float] = field(default=None)
     bias: Mapping[str, float] = field(default=None)
     lag_s: Mapping[str, float] = field(default=None)
+    alpha_vane: Mapping | None = None
+    beta_vane: Mapping | None = None
+    imu_position_m: tuple | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "noise_std", _complete(self.noise_std, DEFAULT_NOISE_STD,
                                                         "noise_std"))
         object.__setattr__(self, "bias", _complete(self.bias, DEFAULT_BIAS, "bias"))
         object.__setattr__(self, "lag_s", _complete(self.lag_s, {}, "lag_s"))
+        geometry = {k: v for k, v in (("alpha_vane", self.alpha_vane),
+                                      ("beta_vane", self.beta_vane),
+                                      ("imu", None if self.imu_position_m is None
+                                       else {"position_m": self.imu_position_m}))
+                    if v is not None}
+        try:  # the schema's own check of the same entries (one copy of the rules)
+            geo = sensor_geometry({"sensor_geometry": geometry})
+        except FlightDataError as exc:
+            raise InputError(f"SensorModel: {exc}") from None
+        for name in ("alpha_vane", "beta_vane"):
+            vane = getattr(geo, name)
+            object.__setattr__(self, name, {"position_m": list(vane.position_m),
+                                            "scale": vane.scale,
+                                            "offset_rad": vane.offset_rad})
+        object.__setattr__(self, "imu_position_m", tuple(geo.imu_position_m))
 
     @classmethod
     def ideal(cls) -> SensorModel:
@@ -110,27 +141,96 @@ class SensorModel:
         zero = {ch: 0.0 for ch in MEASURED_CHANNELS}
         return cls(noise_std=zero, bias=zero, lag_s=zero)
 
+    @classmethod
+    def real_like(cls) -> SensorModel:
+        """Default noise and biases plus the geometry of a real installation: vanes on a
+        nose boom 4 m ahead of the c.g. with 3-4 % scale errors and known offsets, the IMU
+        0.6 m ahead of and 0.2 m below the c.g., air-data lags (vanes 50 ms, airspeed 0.1 s,
+        altitude 0.2 s)."""
+        boom = [4.0, 0.0, -0.4]
+        return cls(alpha_vane={"position_m": boom, "scale": 1.04, "offset_rad": 0.5 * DEG},
+                   beta_vane={"position_m": boom, "scale": 0.97, "offset_rad": -0.3 * DEG},
+                   imu_position_m=(0.6, 0.05, 0.2),
+                   lag_s={"alpha": 0.05, "beta": 0.05, "tas": 0.1, "mach": 0.1, "h": 0.2})
+
     def scaled(self, noise: float = 1.0, bias: float = 1.0) -> SensorModel:
         """A copy with all noise levels and biases multiplied by the given factors."""
         return SensorModel(
             noise_std={k: noise * v for k, v in self.noise_std.items()},
             bias={k: bias * v for k, v in self.bias.items()},
-            lag_s=dict(self.lag_s),
+            lag_s=dict(self.lag_s), alpha_vane=self.alpha_vane, beta_vane=self.beta_vane,
+            imu_position_m=self.imu_position_m,
         )
+
+    @property
+    def has_geometry(self) -> bool:
+        """True when a vane or the IMU is away from the c.g. or a vane is not calibrated."""
+        return (any(self.imu_position_m)
+                or any(any(v["position_m"]) or v["scale"] != 1.0 or v["offset_rad"]
+                       for v in (self.alpha_vane, self.beta_vane)))
 
     @property
     def is_ideal(self) -> bool:
         """True when the measured channels equal the true ones exactly."""
-        return not any(any(d.values()) for d in (self.noise_std, self.bias, self.lag_s))
+        return not (self.has_geometry
+                    or any(any(d.values()) for d in (self.noise_std, self.bias, self.lag_s)))
+
+    def sensor_geometry(self) -> dict | None:
+        """Metadata ``sensor_geometry`` (flight-data schema) of this model, or None when the
+        sensors sit at the c.g., calibrated, without lags."""
+        lags = {ch: v for ch, v in self.lag_s.items() if v and ch in LAG_CHANNELS}
+        if not (self.has_geometry or lags):
+            return None
+        return {"alpha_vane": dict(self.alpha_vane), "beta_vane": dict(self.beta_vane),
+                "imu": {"position_m": list(self.imu_position_m)}, "lag_s": lags}
 
     def to_dict(self) -> dict:
         """Plain-data form (for metadata and worker processes)."""
         return {"noise_std": dict(self.noise_std), "bias": dict(self.bias),
-                "lag_s": dict(self.lag_s)}
+                "lag_s": dict(self.lag_s), "alpha_vane": dict(self.alpha_vane),
+                "beta_vane": dict(self.beta_vane), "imu_position_m": list(self.imu_position_m)}
 
     @classmethod
     def from_dict(cls, d: Mapping) -> SensorModel:
-        return cls(noise_std=d.get("noise_std"), bias=d.get("bias"), lag_s=d.get("lag_s"))
+        return cls(noise_std=d.get("noise_std"), bias=d.get("bias"), lag_s=d.get("lag_s"),
+                   alpha_vane=d.get("alpha_vane"), beta_vane=d.get("beta_vane"),
+                   imu_position_m=d.get("imu_position_m"))
+
+    def sensed(self, true: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """What vanes and accelerometers away from the c.g. see, before lag, bias and noise.
+
+        Parameters
+        ----------
+        true : mapping of str to (n,) ndarray
+            True ``alpha``, ``beta`` [rad], ``tas`` [m/s], ``p, q, r`` [rad/s],
+            ``pdot, qdot, rdot`` [rad/s^2] and ``ax, ay, az`` [m/s^2] at the c.g.
+
+        Returns
+        -------
+        dict of str to (n,) ndarray
+            ``alpha``, ``beta`` (vane readings) and ``ax``, ``ay``, ``az`` (at the IMU).
+        """
+        a, b, V = (np.asarray(true[k], dtype=float) for k in ("alpha", "beta", "tas"))
+        p, q, r = (np.asarray(true[k], dtype=float) for k in ("p", "q", "r"))
+        u, v, w = V * np.cos(a) * np.cos(b), V * np.sin(b), V * np.sin(a) * np.cos(b)
+        out = {}
+        for name, vane in (("alpha", self.alpha_vane), ("beta", self.beta_vane)):
+            x, y, z = vane["position_m"]
+            if x or y or z:
+                ul, vl, wl = u + q * z - r * y, v + r * x - p * z, w + p * y - q * x
+                angle = (np.arctan2(wl, ul) if name == "alpha"
+                         else np.arcsin(vl / np.sqrt(ul * ul + vl * vl + wl * wl)))
+            else:  # at the c.g.: the true angle, exactly
+                angle = a if name == "alpha" else b
+            out[name] = (angle if vane["scale"] == 1.0 and not vane["offset_rad"]
+                         else vane["scale"] * angle + vane["offset_rad"])
+        x, y, z = self.imu_position_m
+        pd_, qd, rd = (np.asarray(true[k], dtype=float) for k in ("pdot", "qdot", "rdot"))
+        cx, cy, cz = q * z - r * y, r * x - p * z, p * y - q * x  # omega x r
+        out["ax"] = np.asarray(true["ax"], dtype=float) + qd * z - rd * y + q * cz - r * cy
+        out["ay"] = np.asarray(true["ay"], dtype=float) + rd * x - pd_ * z + r * cx - p * cz
+        out["az"] = np.asarray(true["az"], dtype=float) + pd_ * y - qd * x + p * cy - q * cx
+        return out
 
     def apply(self, true: Mapping[str, np.ndarray], t: np.ndarray,
               rng: np.random.Generator) -> dict[str, np.ndarray]:
@@ -153,8 +253,9 @@ class SensorModel:
         """
         out = {}
         n = len(t)
+        sensed = self.sensed(true) if self.has_geometry else {}
         for ch in MEASURED_CHANNELS:
-            x = np.asarray(true[ch], dtype=float)
+            x = np.asarray(sensed.get(ch, true[ch]), dtype=float)
             white = rng.standard_normal(n)
             lag = self.lag_s[ch]
             sigma, bias = self.noise_std[ch], self.bias[ch]

@@ -35,8 +35,8 @@ COEFFICIENT_NAMES = COEFFICIENTS
 #: Thrust forces [N] and moments [N m] subtracted when all six are present.
 THRUST_COLUMNS: tuple[str, ...] = ("thrust_x", "thrust_y", "thrust_z", "thrust_l", "thrust_m",
                                    "thrust_n")
-_NEEDED = ("maneuver", "t", "tas", "rho", "p", "q", "r", "ax", "ay", "az", "mass", "Ixx", "Iyy",
-           "Izz", "Ixz")
+_NEEDED = ("maneuver", "t", "tas", "rho", "p", "q", "r", "mass", "Ixx", "Iyy", "Izz", "Ixz")
+_ACCELEROMETERS = ("ax", "ay", "az")
 
 
 def angular_accelerations(df, *, half_window: int = 8, degree: int = 4) -> np.ndarray:
@@ -61,7 +61,7 @@ def angular_accelerations(df, *, half_window: int = 8, degree: int = 4) -> np.nd
 
 def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
                              accelerations: str = "auto", half_window: int = 8,
-                             degree: int = 4):
+                             degree: int = 4, thrust_model=None):
     """Force and moment coefficients (Eq. 43-48) and non-dimensional rates.
 
     Parameters
@@ -75,14 +75,20 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
         differentiation of p, q, r ('differentiate'), or the columns when present ('auto').
     half_window, degree : int
         Differentiation settings.
+    thrust_model : callable or ThrustModel, optional
+        Used when the ``thrust_*`` columns are absent: ``thrust_model(df)`` returns a
+        mapping with some of ``thrust_x .. thrust_n`` ((n,) arrays, N and N m; the others
+        are zero), e.g. :class:`~simplexspline.aero.data.thrust.ThrustModel` (a function of
+        fan speed or fuel flow, density and Mach).
 
     Returns
     -------
     coefficients : pandas.DataFrame
         Columns ``CX, CY, CZ, Cl, Cm, Cn, phat, qhat, rhat`` (and ``pdot, qdot, rdot`` as
-        used), same index as ``df``.
+        used), same index as ``df``. Without accelerometers (``ax, ay, az`` absent or
+        entirely NaN) ``CX, CY, CZ`` are NaN: moment coefficients only.
     thrust_subtracted : bool
-        True when the thrust columns were present and subtracted; False when the
+        True when thrust was subtracted (the columns, or the thrust model); False when the
         coefficients include thrust (as in the paper).
 
     Raises
@@ -113,9 +119,23 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
     else:
         acc = df[["pdot", "qdot", "rdot"]].to_numpy(dtype=float)
     col = {n: df[n].to_numpy(dtype=float) for n in _NEEDED[2:]}
-    thrust = all(n in df.columns for n in THRUST_COLUMNS)
-    T = ([df[n].to_numpy(dtype=float) for n in THRUST_COLUMNS] if thrust
-         else [0.0] * 6)
+    nan = np.full(len(df), np.nan)
+    for n in _ACCELEROMETERS:        # no accelerometers: no force coefficients
+        col[n] = df[n].to_numpy(dtype=float) if n in df.columns else nan
+    thrust = all(n in df.columns and not df[n].isna().all() for n in THRUST_COLUMNS)
+    if thrust:
+        T = [df[n].to_numpy(dtype=float) for n in THRUST_COLUMNS]
+    elif thrust_model is not None:
+        given = thrust_model(df)
+        unknown = set(given) - set(THRUST_COLUMNS)
+        if unknown:
+            raise InputError(f"the thrust model returned unknown key(s) {sorted(unknown)}; "
+                             f"allowed: {list(THRUST_COLUMNS)}")
+        T = [np.broadcast_to(np.asarray(given.get(n, 0.0), dtype=float), (len(df),))
+             for n in THRUST_COLUMNS]
+        thrust = True
+    else:
+        T = [0.0] * 6
     V, m = col["tas"], col["mass"]
     p, q, r = col["p"], col["q"], col["r"]
     pd_, qd, rd = acc[:, 0], acc[:, 1], acc[:, 2]

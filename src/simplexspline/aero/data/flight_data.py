@@ -96,8 +96,8 @@ _ID = [
     ("phi", "rad", "bank angle (Euler 3-2-1, right wing down positive)"),
     ("theta", "rad", "pitch attitude (Euler 3-2-1, nose up positive)"),
     ("psi", "rad", "heading (Euler 3-2-1, from true north, east positive), in [-pi, pi)"),
-    ("ax", "m/s^2", "specific force along body x (non-gravitational force/mass) at the c.g., "
-                    "or at metadata sensor_geometry.imu"),
+    ("ax", "m/s^2", ("specific force along body x (non-gravitational force/mass) at the "
+                     "c.g., or at metadata sensor_geometry.imu")),
     ("ay", "m/s^2", "specific force along body y at the c.g."),
     ("az", "m/s^2", "specific force along body z at the c.g. (about -g in level flight)"),
     ("de", "rad", "elevator deflection (sign convention in metadata 'sign_conventions')"),

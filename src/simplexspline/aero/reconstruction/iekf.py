@@ -45,9 +45,9 @@ class StateEstimate:
 
     Attributes
     ----------
-    x : (18,) ndarray
+    x : (23,) ndarray
         Mean (:data:`~simplexspline.aero.reconstruction.kinematics.STATE_NAMES`).
-    P : (18, 18) ndarray
+    P : (23, 23) ndarray
         Covariance.
     """
 
@@ -64,7 +64,7 @@ class FilterNoise:
     input_std : (6,) ndarray
         IMU white-noise standard deviations per sample (``ax, ay, az`` [m/s^2], ``p, q, r``
         [rad/s]).
-    process_var : (18,) ndarray
+    process_var : (23,) ndarray
         Additional process-noise variances per step (model errors).
     measurement_std : (12,) ndarray
         Measurement-noise standard deviations.
@@ -119,11 +119,11 @@ def _measured(zk: np.ndarray, finite: np.ndarray, complete: bool, R_full: np.nda
 
 
 def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarray,
-                     iteration: IteratedUpdate, sample: int):
+                     iteration: IteratedUpdate, sample: int, arm: np.ndarray | None = None):
     """Iterated measurement update of the prediction ``(x, P)`` (see the module docstring).
 
-    ``H`` (12, 18) is scratch space for the measurement Jacobian. Returns the updated
-    state (18,) and covariance (18, 18), the number of gains computed and the innovation
+    ``H`` (12, 23) is scratch space for the measurement Jacobian. Returns the updated
+    state (23,) and covariance (23, 23), the number of gains computed and the innovation
     of the prediction with its predicted variances ((m,) each).
     """
     sel, R, psi_j = meas.sel, meas.R, meas.psi_j
@@ -131,7 +131,7 @@ def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarra
     xi = x
     it = 0
     while True:
-        h = measure(xi, H)
+        h = measure(xi, H, arm)
         Hs = H if sel is None else H[sel]
         hs = h if sel is None else h[sel]
         res = _wrap(meas.z - hs, psi_j)
@@ -150,7 +150,7 @@ def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarra
         # sigmas. It is K (h(xi) + H (x_new - xi) - h(x_new)) to first order (the
         # next relinearisation only corrects the linearisation error at x_new),
         # estimated with the current gain: no new gain unless it is needed.
-        hn = measure(x_new, None)
+        hn = measure(x_new, None, arm)
         lin_err = hs + Hs @ (x_new - xi) - (hn if sel is None else hn[sel])
         step = np.max(np.abs(K @ _wrap(lin_err, psi_j)) / sig)
         xi = x_new
@@ -161,9 +161,10 @@ def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarra
 
 
 def _predict(x: np.ndarray, P: np.ndarray, uk: np.ndarray, dt: float, gk: float,
-             earth: EarthModel, F: np.ndarray, Qm: np.ndarray, var_u: np.ndarray):
+             earth: EarthModel, F: np.ndarray, Qm: np.ndarray, var_u: np.ndarray,
+             specific_force: bool = True):
     """Time update of ``(x, P)`` over one step; writes the transition matrix into ``F``."""
-    x = propagate(x, uk, dt, gk, earth, F)
+    x = propagate(x, uk, dt, gk, earth, F, specific_force)
     G = F[:9, 9:15]
     P = F @ P @ F.T + Qm
     P[:9, :9] += (G * var_u) @ G.T
@@ -172,13 +173,14 @@ def _predict(x: np.ndarray, P: np.ndarray, uk: np.ndarray, dt: float, gk: float,
 
 def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
                g: np.ndarray, earth: EarthModel, noise: FilterNoise,
-               iteration: IteratedUpdate = IteratedUpdate()) -> dict:
+               iteration: IteratedUpdate = IteratedUpdate(), *,
+               arm: np.ndarray | None = None, specific_force: bool = True) -> dict:
     """Forward pass of the iterated extended Kalman filter.
 
     Parameters
     ----------
     initial : StateEstimate
-        Initial state estimate (18,) and its covariance (18, 18).
+        Initial state estimate (23,) and its covariance (23, 23).
     u : (n, 6) ndarray
         Measured IMU inputs (``ax, ay, az`` [m/s^2], ``p, q, r`` [rad/s]); finite.
     z : (n, 12) ndarray
@@ -193,13 +195,18 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
         IMU, process and measurement noise.
     iteration : IteratedUpdate
         Stopping rule of the iterated measurement update.
+    arm : (n, 6) ndarray, optional
+        Per sample, ``omega x r`` [m/s] of the alpha and the beta vane (see
+        :func:`~simplexspline.aero.reconstruction.kinematics.measure`); None: at the c.g.
+    specific_force : bool
+        False without accelerometers (body velocities as a random walk; ``u[:, :3]`` unused).
 
     Returns
     -------
     dict
-        ``x_filt`` (n, 18), ``P_filt`` (n, 18, 18), ``x_pred`` (n, 18) and ``P_pred``
-        (n, 18, 18) (row k is the prediction of sample k; row 0 is the prior), ``F``
-        (n, 18, 18) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
+        ``x_filt`` (n, 23), ``P_filt`` (n, 23, 23), ``x_pred`` (n, 23) and ``P_pred``
+        (n, 23, 23) (row k is the prediction of sample k; row 0 is the prior), ``F``
+        (n, 23, 23) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
         prediction (NaN where not measured), ``innov_var`` (n, 12) their predicted variances,
         ``iterations`` (n,) int.
     """
@@ -226,13 +233,14 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
         P_pred[k] = P
         meas = _measured(z[k], finite[k], all_ok[k], R_full)
         if meas.z.size:
-            x, P, iters[k], (res, res_var) = _iterated_update(x, P, meas, H, iteration, k)
+            x, P, iters[k], (res, res_var) = _iterated_update(
+                x, P, meas, H, iteration, k, None if arm is None else arm[k])
             cols = slice(None) if meas.sel is None else meas.sel
             innov[k, cols] = res
             innov_var[k, cols] = res_var
         x_filt[k] = x
         P_filt[k] = P
-        x, P = _predict(x, P, u[k], dt, g[k], earth, Fs[k], Qm, var_u)
+        x, P = _predict(x, P, u[k], dt, g[k], earth, Fs[k], Qm, var_u, specific_force)
     return {"x_filt": x_filt, "P_filt": P_filt, "x_pred": x_pred, "P_pred": P_pred, "F": Fs,
             "innov": innov, "innov_var": innov_var, "iterations": iters}
 
@@ -253,8 +261,8 @@ def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.n
 
     Returns
     -------
-    x_s : (n, 18) ndarray
-    var_s : (n, 18) ndarray or None
+    x_s : (n, 23) ndarray
+    var_s : (n, 23) ndarray or None
         Smoothed variances, when ``covariance``.
     """
     xf, Pf, xp, Pp, F = out["x_filt"], out["P_filt"], out["x_pred"], out["P_pred"], out["F"]

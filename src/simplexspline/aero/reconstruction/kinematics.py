@@ -17,14 +17,17 @@ about 0.03 m/s^2, the size of an accelerometer bias: leaving them out would bias
 estimates. In the Jacobians they are treated as known inputs (their state derivatives are
 below 1e-6 of the retained terms).
 
-States (18): ``x, y, z`` [m] NED position from the maneuver's first GPS sample; ``u, v, w``
-[m/s]; ``phi, theta, psi`` [rad] (psi is kept unwrapped); accelerometer biases
-``bax, bay, baz`` [m/s^2]; gyro biases ``bp, bq, br`` [rad/s]; air-data errors ``balpha``,
-``bbeta`` [rad] (vane offsets) and ``btas`` [m/s] (airspeed bias).
+States (23): ``x, y, z`` [m] NED position from the maneuver's first GPS sample; ``u, v, w``
+[m/s] (Earth-relative); ``phi, theta, psi`` [rad] (psi is kept unwrapped); accelerometer
+biases ``bax, bay, baz`` [m/s^2]; gyro biases ``bp, bq, br`` [rad/s]; air-data errors
+``balpha``, ``bbeta`` [rad] (vane offsets) and ``btas`` [m/s] (airspeed bias); the wind
+``wind_n, wind_e, wind_d`` [m/s] (NED velocity of the air mass); vane scale-factor errors
+``kalpha, kbeta`` [-]. Which of them are estimated depends on the channels present (the
+driver holds the unobservable ones at their prior).
 
 Measurements (12): GPS position ``x_gps, y_gps, z_gps``, GPS velocity ``vn_gps, ve_gps,
-vd_gps``, air data ``tas, alpha, beta`` and attitude ``phi, theta, psi``. Still air is
-assumed (the air-relative velocity equals the Earth-relative one).
+vd_gps``, air data ``tas, alpha, beta`` (of the air-relative velocity, at the vanes'
+positions) and attitude ``phi, theta, psi``.
 
 Discretisation (measured against JSBSim on noise-free campaigns): the specific force enters
 as the mean of samples k and k + 1 (the caller averages it), the body axes turn by the exact
@@ -43,7 +46,8 @@ import math
 import numpy as np
 
 __all__ = [
-    "STATE_NAMES", "INPUT_NAMES", "MEASUREMENT_NAMES", "BIAS_STATES", "EarthModel",
+    "STATE_NAMES", "INPUT_NAMES", "MEASUREMENT_NAMES", "BIAS_STATES", "WIND_STATES",
+    "SCALE_STATES", "EarthModel",
     "normal_gravity", "propagate", "measure",
 ]
 
@@ -51,6 +55,7 @@ __all__ = [
 STATE_NAMES: tuple[str, ...] = (
     "x", "y", "z", "u", "v", "w", "phi", "theta", "psi",
     "bax", "bay", "baz", "bp", "bq", "br", "balpha", "bbeta", "btas",
+    "wind_n", "wind_e", "wind_d", "kalpha", "kbeta",
 )
 #: IMU inputs, in order (schema columns).
 INPUT_NAMES: tuple[str, ...] = ("ax", "ay", "az", "p", "q", "r")
@@ -64,6 +69,10 @@ BIAS_STATES: dict[str, str] = {
     "bax": "ax", "bay": "ay", "baz": "az", "bp": "p", "bq": "q", "br": "r",
     "balpha": "alpha", "bbeta": "beta", "btas": "tas",
 }
+#: Wind states (NED, the velocity of the air mass over the Earth) [m/s].
+WIND_STATES: tuple[str, ...] = ("wind_n", "wind_e", "wind_d")
+#: Vane scale-factor errors (the vane reads (1 + k) times the local flow angle) [-].
+SCALE_STATES: dict[str, str] = {"kalpha": "alpha", "kbeta": "beta"}
 NX = len(STATE_NAMES)
 NZ = len(MEASUREMENT_NAMES)
 #: index of psi in the measurement vector (its innovation is wrapped to [-pi, pi)).
@@ -165,16 +174,16 @@ _F_ENTRIES = (
     (6, 6), (6, 7), (7, 6), (8, 6), (8, 7),
     (6, 12), (6, 13), (6, 14), (7, 13), (7, 14), (8, 13), (8, 14),
 )
-_F_INDEX = np.array([i * 18 + j for i, j in _F_ENTRIES])
+_F_INDEX = np.array([i * NX + j for i, j in _F_ENTRIES])
 
 
 def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthModel,
-              F: np.ndarray) -> np.ndarray:
+              F: np.ndarray, specific_force: bool = True) -> np.ndarray:
     """One step of the state equations and its (first-order) transition matrix.
 
     Parameters
     ----------
-    x : (18,) ndarray
+    x : (23,) ndarray
         State at step k.
     u : (6,) ndarray
         Measured IMU inputs: specific force ``ax, ay, az`` [m/s^2] over the step (mean of
@@ -184,17 +193,21 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
     g : float
         Gravity at this altitude [m/s^2].
     earth : EarthModel
-    F : (18, 18) ndarray
+    F : (23, 23) ndarray
         Output: the transition matrix I + dt * df/dx. Only the model's non-trivial
-        entries are written: pass the identity (or a matrix returned by an earlier call)
-        so that every other entry is already that of the identity.
+        entries are written: pass the identity (or a matrix returned by an earlier call
+        with the same ``specific_force``) so that every other entry is already that of the
+        identity.
+    specific_force : bool
+        False when there are no accelerometers: the body velocities are then a random walk
+        (held, to be driven by process noise) and ``u[:3]`` is ignored.
 
     Returns
     -------
-    (18,) ndarray
+    (23,) ndarray
         State at step k + 1.
     """
-    (_, _, _, uu, vv, ww, phi, theta, psi, bax, bay, baz, bp, bq, br, _, _, _) = x.tolist()
+    (_, _, _, uu, vv, ww, phi, theta, psi, bax, bay, baz, bp, bq, br) = x[:15].tolist()
     fx, fy, fz = u[0] - bax, u[1] - bay, u[2] - baz
     p, q, r = u[3] - bp, u[4] - bq, u[5] - br
     C = _dcm(phi, theta, psi)
@@ -269,18 +282,43 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
         -dt, -dt * sf * tt, -dt * cf * tt, -dt * cf, dt * sf, -dt * sf / ct, -dt * cf / ct,
     )
     F.flat[_F_INDEX] = vals
+    if not specific_force:
+        out[3:6] = x[3:6]
+        F[3:6, :] = 0.0
+        F[3, 3] = F[4, 4] = F[5, 5] = 1.0
     return out
 
 
-def measure(x: np.ndarray, H: np.ndarray | None) -> np.ndarray:
+def _dcm_derivatives(cf, sf, ct, st, cp, sp):
+    """d C_nb / d phi, d theta, d psi (each a 3 x 3 ndarray)."""
+    return (np.array(((0.0, cf * st * cp + sf * sp, -sf * st * cp + cf * sp),
+                      (0.0, cf * st * sp - sf * cp, -sf * st * sp - cf * cp),
+                      (0.0, cf * ct, -sf * ct))),
+            np.array(((-st * cp, sf * ct * cp, cf * ct * cp),
+                      (-st * sp, sf * ct * sp, cf * ct * sp),
+                      (-ct, -sf * st, -cf * st))),
+            np.array(((-ct * sp, -sf * st * sp - cf * cp, -cf * st * sp + sf * cp),
+                      (ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp),
+                      (0.0, 0.0, 0.0))))
+
+
+def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
+            ) -> np.ndarray:
     """Predicted measurements and their Jacobian.
+
+    The air data see the air-relative velocity ``V_a = V_b - C_bn W`` (W the wind states);
+    the vanes see it at their position, ``V_a + omega x r``, and read ``(1 + k)`` times the
+    flow angle there plus their offset. The airspeed is that of the c.g.
 
     Parameters
     ----------
-    x : (18,) ndarray
+    x : (23,) ndarray
         State.
-    H : (12, 18) ndarray or None
+    H : (12, 23) ndarray or None
         Output: d h / d x (overwritten in place); None to skip the Jacobian.
+    arm : (6,) ndarray, optional
+        ``omega x r`` [m/s] of the alpha vane (first three) and of the beta vane (last
+        three) at this sample, body axes; None: vanes at the c.g.
 
     Returns
     -------
@@ -288,20 +326,33 @@ def measure(x: np.ndarray, H: np.ndarray | None) -> np.ndarray:
         ``x_gps, y_gps, z_gps`` [m], ``vn, ve, vd`` [m/s], ``tas`` [m/s], ``alpha``,
         ``beta``, ``phi``, ``theta``, ``psi`` [rad] (psi unwrapped, as the state).
     """
-    (px, py, pz, uu, vv, ww, phi, theta, psi, _, _, _, _, _, _, ba, bb, bv) = x.tolist()
+    (px, py, pz, uu, vv, ww, phi, theta, psi, _, _, _, _, _, _, ba, bb, bv,
+     wn, we, wd, ka, kb) = x.tolist()
     C = _dcm(phi, theta, psi)
     cf, sf = math.cos(phi), math.sin(phi)
     ct, st = math.cos(theta), math.sin(theta)
     cp, sp = math.cos(psi), math.sin(psi)
-    V2 = uu * uu + vv * vv + ww * ww
-    V = math.sqrt(V2)
-    uw2 = uu * uu + ww * ww
-    uw = math.sqrt(uw2)
     vn = C[0][0] * uu + C[0][1] * vv + C[0][2] * ww
     ve = C[1][0] * uu + C[1][1] * vv + C[1][2] * ww
     vd = C[2][0] * uu + C[2][1] * vv + C[2][2] * ww
-    h = np.array((px, py, pz, vn, ve, vd, V + bv, math.atan2(ww, uu) + ba,
-                  math.asin(vv / V) + bb, phi, theta, psi))
+    # air-relative velocity at the c.g. and at the vanes
+    ua = uu - (C[0][0] * wn + C[1][0] * we + C[2][0] * wd)
+    va = vv - (C[0][1] * wn + C[1][1] * we + C[2][1] * wd)
+    wa = ww - (C[0][2] * wn + C[1][2] * we + C[2][2] * wd)
+    if arm is None:
+        a0 = a2 = b0 = b1 = b2 = 0.0
+    else:
+        a0, _, a2, b0, b1, b2 = arm.tolist()      # v at the alpha vane does not matter
+    V = math.sqrt(ua * ua + va * va + wa * wa)
+    ul, wl = ua + a0, wa + a2
+    uw2a = ul * ul + wl * wl
+    alpha_l = math.atan2(wl, ul)
+    ub, vb, wb = ua + b0, va + b1, wa + b2
+    Vb2 = ub * ub + vb * vb + wb * wb
+    Vb = math.sqrt(Vb2)
+    beta_l = math.asin(vb / Vb)
+    h = np.array((px, py, pz, vn, ve, vd, V + bv, (1.0 + ka) * alpha_l + ba,
+                  (1.0 + kb) * beta_l + bb, phi, theta, psi))
     if H is None:
         return h
     H[...] = 0.0
@@ -321,13 +372,23 @@ def measure(x: np.ndarray, H: np.ndarray | None) -> np.ndarray:
     H[5, 7] = -ct * uu - st * a
     H[3, 8] = -sp * c - cp * b
     H[4, 8] = cp * c - sp * b
-    H[6, 3], H[6, 4], H[6, 5] = uu / V, vv / V, ww / V
+    # air data: gradients with respect to the air-relative body velocity, then the chain
+    # rule through V_a = V_b - C' W (body velocity, attitude and wind)
+    uwb = math.sqrt(ub * ub + wb * wb)
+    grads = np.array(((ua / V, va / V, wa / V),
+                      ((1.0 + ka) * -wl / uw2a, 0.0, (1.0 + ka) * ul / uw2a),
+                      ((1.0 + kb) * -ub * vb / (Vb2 * uwb), (1.0 + kb) * uwb / Vb2,
+                       (1.0 + kb) * -wb * vb / (Vb2 * uwb))))
+    Cm = np.array(C)
+    W = np.array((wn, we, wd))
+    H[6:9, 3:6] = grads
+    for j, dC in enumerate(_dcm_derivatives(cf, sf, ct, st, cp, sp)):
+        H[6:9, 6 + j] = -grads @ (dC.T @ W)
+    H[6:9, 18:21] = -grads @ Cm.T
     H[6, 17] = 1.0
-    H[7, 3], H[7, 5] = -ww / uw2, uu / uw2
     H[7, 15] = 1.0
-    H[8, 3] = -uu * vv / (V2 * uw)
-    H[8, 4] = uw / V2
-    H[8, 5] = -ww * vv / (V2 * uw)
     H[8, 16] = 1.0
+    H[7, 21] = alpha_l
+    H[8, 22] = beta_l
     H[9, 6] = H[10, 7] = H[11, 8] = 1.0
     return h

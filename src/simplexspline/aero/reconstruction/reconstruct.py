@@ -26,14 +26,24 @@ import numpy as np
 
 from simplexspline._workers import ignore_interrupts
 from simplexspline._files import jsonable
-from simplexspline.aero.data.coefficients import aerodynamic_coefficients
-from simplexspline.aero.data.flight_data import validate_flight_data
+from simplexspline.aero.data.coefficients import THRUST_COLUMNS, aerodynamic_coefficients
+from simplexspline.aero.data.flight_data import (
+    present_columns, sensor_geometry, validate_flight_data,
+)
 from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
+from simplexspline.aero.reconstruction.diagnosis import likely_causes
 from simplexspline.aero.reconstruction.kinematics import (
-    BIAS_STATES, INPUT_NAMES, MEASUREMENT_NAMES, NX, STATE_NAMES, EarthModel,
+    BIAS_STATES, INPUT_NAMES, MEASUREMENT_NAMES, NX, SCALE_STATES, STATE_NAMES, WIND_STATES,
+    EarthModel, measure,
+)
+from simplexspline.aero.reconstruction.observability import (
+    channels_present, heading_excursion, observability_plan, variance_reduction,
+)
+from simplexspline.aero.reconstruction.sensor_corrections import (
+    estimate_lag, rotation_velocity, specific_force_at_cg, undo_lag,
 )
 from simplexspline.aero.variables import DEG
 from simplexspline.errors import FlightDataError, InputError
@@ -41,8 +51,10 @@ from simplexspline.errors import FlightDataError, InputError
 __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstruct_maneuver",
            "innovation_statistics"]
 
+#: Constant air-data errors estimated for the whole campaign (``air_data_calibration``).
+CALIBRATION_STATES = ("btas", "balpha", "bbeta", "kalpha", "kbeta")
 #: Channels a maneuver cannot be reconstructed without (at least one valid sample each).
-ESSENTIAL_MEASUREMENTS = ("tas", "alpha", "beta", "phi", "theta", "psi")
+ESSENTIAL_MEASUREMENTS = ("tas", "alpha", "phi", "theta")
 
 
 def _default_input_noise() -> dict:
@@ -58,7 +70,8 @@ def _default_measurement_noise() -> dict:
 
 def _default_prior() -> dict:
     return {"position": 5.0, "velocity": 1.0, "attitude": 0.01, "accel_bias": 0.1,
-            "gyro_bias": 2e-3, "vane_bias": 0.02, "tas_bias": 2.0}
+            "gyro_bias": 2e-3, "vane_bias": 0.02, "tas_bias": 2.0, "wind": 10.0,
+            "vane_scale": 0.05, "heading": 0.3}
 
 
 @dataclass(frozen=True)
@@ -76,7 +89,10 @@ class ReconstructionSettings:
     prior : dict
         Initial standard deviations: ``position`` [m], ``velocity`` [m/s], ``attitude``
         [rad], ``accel_bias`` [m/s^2], ``gyro_bias`` [rad/s], ``vane_bias`` [rad],
-        ``tas_bias`` [m/s]. Biases start at zero.
+        ``tas_bias`` [m/s], ``wind`` [m/s], ``vane_scale`` [-] and ``heading`` [rad] (of
+        the heading taken from the GPS track when there is no heading channel). Biases
+        start at zero. States the channels cannot observe are held at their prior
+        (:mod:`~simplexspline.aero.reconstruction.observability`).
     velocity_model_noise : float
         Extra process noise on u, v, w [m/s^2 per step, 1 sigma] for model errors
         (discretisation of the simulator's integrator, about 0.03 m/s^2).
@@ -99,6 +115,32 @@ class ReconstructionSettings:
         present, else smoothed differentiation of the reconstructed rates).
     diff_half_window, diff_degree : int
         Smoothed-differentiation settings (:mod:`simplexspline.aero.data.differentiation`).
+    wind_random_walk : float
+        Wind process noise [m/s per sqrt(s)]; 0 (default): a constant wind per maneuver.
+        Used only with GPS (the wind is not observable without).
+    estimate_vane_scale : bool
+        Estimate the vanes' scale-factor errors (only with GPS).
+    beta_pseudo_std : float
+        Without a sideslip vane and without GPS: the sigma [rad] of the zero-mean
+        pseudo-measurement of beta that keeps the dead-reckoned sideslip from drifting.
+    velocity_random_walk : float
+        Without accelerometers: process noise of the body velocities [m/s^2 per step,
+        1 sigma] (a random walk observed by the air data).
+    estimate_lags : bool
+        Estimate each air-data and attitude channel's time lag against the reconstruction
+        (a diagnostic in the summary; known lags go in metadata ``sensor_geometry``).
+    air_data_calibration : {'campaign', 'maneuver'}
+        With GPS, a constant wind and constant air-data errors (airspeed bias, vane offsets
+        and scale factors) can be told apart only through heading changes, so one maneuver
+        rarely separates them. 'campaign' (default): a first pass estimates them in every
+        maneuver with GPS, their information-weighted combination is the campaign's
+        calibration (the sensors are the same in every maneuver), and the second pass holds
+        them there and estimates the wind per maneuver. 'maneuver': one pass, everything
+        per maneuver.
+    calibration_maneuvers : int
+        The first pass uses at most this many GPS maneuvers, those with the largest heading
+        change (what separates a constant wind from air-data errors), so its cost stays
+        bounded on large campaigns.
     """
 
     input_noise: dict = field(default_factory=_default_input_noise)
@@ -114,6 +156,13 @@ class ReconstructionSettings:
     accelerations: str = "auto"
     diff_half_window: int = 8
     diff_degree: int = 4
+    wind_random_walk: float = 0.0
+    estimate_vane_scale: bool = True
+    beta_pseudo_std: float = 0.05
+    velocity_random_walk: float = 5.0
+    estimate_lags: bool = True
+    air_data_calibration: str = "campaign"
+    calibration_maneuvers: int = 20
 
     def __post_init__(self):
         for name, keys in (("input_noise", INPUT_NAMES), ("measurement_noise",
@@ -133,9 +182,16 @@ class ReconstructionSettings:
             raise InputError(f"prior must have positive entries {sorted(_default_prior())}")
         object.__setattr__(self, "prior", prior)
         if not (self.tol > 0 and self.max_iter >= 1 and self.min_duration_s >= 0
-                and self.velocity_model_noise >= 0):
-            raise InputError("need tol > 0, max_iter >= 1, min_duration_s >= 0 and "
-                             "velocity_model_noise >= 0")
+                and self.velocity_model_noise >= 0 and self.wind_random_walk >= 0
+                and self.beta_pseudo_std > 0 and self.velocity_random_walk > 0):
+            raise InputError("need tol > 0, max_iter >= 1, min_duration_s >= 0, "
+                             "velocity_model_noise >= 0, wind_random_walk >= 0, "
+                             "beta_pseudo_std > 0 and velocity_random_walk > 0")
+        if int(self.calibration_maneuvers) != self.calibration_maneuvers or \
+                self.calibration_maneuvers < 1:
+            raise InputError("calibration_maneuvers must be a positive integer")
+        if self.air_data_calibration not in ("campaign", "maneuver"):
+            raise InputError("air_data_calibration must be 'campaign' or 'maneuver'")
         if self.accelerations not in ("auto", "measured", "differentiate"):
             raise InputError("accelerations must be 'auto', 'measured' or 'differentiate'")
 
@@ -236,67 +292,209 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         k = int(np.argmax(np.abs(dts - dt)))
         return _reject(man, f"non-uniform sampling: step {dts[k]:.4g} s at t = {t[k]:.3f} s "
                             f"(median {dt:.4g} s); resample the maneuver")
-    u = np.column_stack([np.asarray(task[c], dtype=float) for c in INPUT_NAMES])
-    for j, c in enumerate(INPUT_NAMES):
-        if not np.isfinite(u[:, j]).all():
-            t0, k = _nan_burst(u[:, j], t)
+    present = channels_present(task)
+    for c in ESSENTIAL_MEASUREMENTS:
+        if c not in task or not np.isfinite(np.asarray(task[c], dtype=float)).any():
+            return _reject(man, f"channel {c!r} has no valid sample in this maneuver")
+    inputs = INPUT_NAMES if present["accelerometers"] else INPUT_NAMES[3:]
+    for c in inputs:
+        x = np.asarray(task[c], dtype=float)
+        if not np.isfinite(x).all():
+            t0, k = _nan_burst(x, t)
             return _reject(man, f"NaN gap in IMU input {c!r} at t = {t0:.2f} s ({k} samples): "
                                 "the inputs of the kinematic model must be complete")
-    # trapezoidal specific force over each step (JSBSim's translational integration);
-    # the body rates enter at the start of the step (explicit Euler, as JSBSim)
-    u[:-1, :3] = 0.5 * (u[:-1, :3] + u[1:, :3])
+    geo = task.get("geometry") or {}
+    task = _corrected(task, geo, dt)
+    rates = np.column_stack([task[c] for c in ("p", "q", "r")])
+    cg = (np.column_stack([task[c] for c in ("x_cg", "y_cg", "z_cg")])
+          if all(c in task for c in ("x_cg", "y_cg", "z_cg")) else np.zeros(3))
+    cg = np.where(np.isfinite(cg), cg, 0.0)
+    u = np.zeros((n, len(INPUT_NAMES)))
+    u[:, 3:] = rates
+    if present["accelerometers"]:
+        acc = np.column_stack([task[c] for c in ("ax", "ay", "az")])
+        imu = np.asarray(geo.get("imu_position_m", (0.0, 0.0, 0.0)), dtype=float)
+        if np.any(imu != 0) or np.ndim(cg) == 2:
+            acc = specific_force_at_cg(acc, rates, dt, imu - cg)
+        u[:, :3] = acc
+        # trapezoidal specific force over each step (JSBSim's translational integration);
+        # the body rates enter at the start of the step (explicit Euler, as JSBSim)
+        u[:-1, :3] = 0.5 * (acc[:-1] + acc[1:])
+    arm = np.hstack([rotation_velocity(rates, np.asarray(geo.get(k, (0.0, 0.0, 0.0)),
+                                                         dtype=float) - cg)
+                     for k in ("alpha_vane_position_m", "beta_vane_position_m")])
+    if not np.any(arm):
+        arm = None
+    plan = observability_plan(present, estimate_vane_scale=s["estimate_vane_scale"])
+    # the campaign's air-data calibration (from its GPS maneuvers) also serves the
+    # maneuvers without GPS, which cannot observe it themselves
+    calibration = {k: v for k, v in (task.get("calibration") or {}).items()
+                   if k not in plan["held"] or plan["held"][k].startswith("unobservable")}
+    for k in calibration:
+        plan["held"][k] = "campaign air-data calibration (held at its estimate)"
     z = np.full((n, len(MEASUREMENT_NAMES)), np.nan)
     for j, c in enumerate(MEASUREMENT_NAMES):
         if c in task:
             z[:, j] = task[c]
-    for c in ESSENTIAL_MEASUREMENTS:
-        if not np.isfinite(z[:, MEASUREMENT_NAMES.index(c)]).any():
-            return _reject(man, f"channel {c!r} has no valid sample in this maneuver")
     skipped = {c: int((~np.isfinite(z[:, j])).sum()) for j, c in enumerate(MEASUREMENT_NAMES)
-               if c in task and not np.isfinite(z[:, j]).all()}
+               if c in task and not np.isfinite(z[:, j]).all() and np.isfinite(z[:, j]).any()}
+    meas_std = np.array([s["measurement_noise"][c] for c in MEASUREMENT_NAMES])
+    jb = MEASUREMENT_NAMES.index("beta")
+    if plan["beta_pseudo"]:
+        z[:, jb] = 0.0                     # zero-mean pseudo-measurement (see observability)
+        meas_std[jb] = s["beta_pseudo_std"]
     h = np.asarray(task["h"], dtype=float)
     h = np.where(np.isfinite(h), h, np.nanmedian(h) if np.isfinite(h).any() else 0.0)
     earth = EarthModel(math.radians(s["latitude_deg"]), s["earth_rotation"])
     g = np.asarray(earth.gravity(h), dtype=float)
 
     q_model = np.zeros(NX)
-    q_model[3:6] = (s["velocity_model_noise"] * dt) ** 2
+    q_model[3:6] = ((s["velocity_model_noise"] if present["accelerometers"]
+                     else s["velocity_random_walk"]) * dt) ** 2
     q_model[6:9] = (1e-6 * dt) ** 2
     q_model[9:] = 1e-16          # numerical floor on the (constant) biases
+    if "wind_n" not in plan["held"]:
+        q_model[18:21] = max(s["wind_random_walk"] ** 2 * dt, 1e-16)
+    for name in plan["held"]:
+        q_model[STATE_NAMES.index(name)] = 0.0
     noise = FilterNoise(input_std=np.array([s["input_noise"][c] for c in INPUT_NAMES]),
-                        process_var=q_model,
-                        measurement_std=np.array([s["measurement_noise"][c]
-                                                  for c in MEASUREMENT_NAMES]))
+                        process_var=q_model, measurement_std=meas_std)
+    initial = initial_state(z, s["prior"], present=present, held=plan["held"], task=task)
+    for k, (value, _) in calibration.items():
+        initial.x[STATE_NAMES.index(k)] = value     # held there (variance at the floor)
+    if s.get("calibration_pass"):
+        with np.errstate(over="raise", invalid="raise", divide="raise"):
+            out = run_filter(initial, u, z, dt, g, earth, noise,
+                             IteratedUpdate(tol=s["tol"], max_iter=s["max_iter"]), arm=arm,
+                             specific_force=present["accelerometers"])
+        if not np.isfinite(out["x_filt"]).all():
+            return _reject(man, "filter diverged in the calibration pass")
+        P = out["P_filt"][-1]
+        return {"maneuver": man, "ok": True, "calibration": {
+            k: (float(out["x_filt"][-1, STATE_NAMES.index(k)]),
+                float(math.sqrt(P[STATE_NAMES.index(k), STATE_NAMES.index(k)])),
+                float(math.sqrt(initial.P[STATE_NAMES.index(k), STATE_NAMES.index(k)])))
+            for k in CALIBRATION_STATES if k not in plan["held"]}}
     with np.errstate(over="raise", invalid="raise", divide="raise"):
-        out = run_filter(initial_state(z, s["prior"]), u, z, dt, g, earth, noise,
-                         IteratedUpdate(tol=s["tol"], max_iter=s["max_iter"]))
+        out = run_filter(initial, u, z, dt, g, earth, noise,
+                         IteratedUpdate(tol=s["tol"], max_iter=s["max_iter"]), arm=arm,
+                         specific_force=present["accelerometers"])
     innov = out["innov"]
     stats = innovation_statistics(innov, out["innov_var"])
+    if plan["beta_pseudo"]:
+        stats.pop("beta", None)
     worst = max((abs(v["mean"]) + v["std"] for v in stats.values()), default=0.0)
     if not np.isfinite(out["x_filt"]).all() or worst > 50:
+        causes = likely_causes(task, dt, stats, innov, present, MEASUREMENT_NAMES)
         return _reject(man, f"filter diverged (normalised innovations up to {worst:.3g} "
-                            "sigma): check the units and signs of the channels")
+                            "sigma); likely causes: " + (causes or "none of the checks fired: "
+                                                         "check the units and signs of the "
+                                                         "channels"))
     if s["smoother"]:
         xs, _ = rts_smooth(out)
     else:
         xs = out["x_filt"]
     Pend = out["P_filt"][-1]
+    sd_end = np.sqrt(np.maximum(Pend.diagonal(), 0.0))
+    ratio = variance_reduction(np.sqrt(initial.P.diagonal()), sd_end)
     biases = {}
-    for name, ch in BIAS_STATES.items():
+    for name, ch in {**BIAS_STATES, **{w: w for w in WIND_STATES},
+                     **{k: k for k in SCALE_STATES}}.items():
         i = STATE_NAMES.index(name)
-        biases[ch] = (float(xs[0, i]), float(math.sqrt(Pend[i, i])))
-    uu, vv, ww = xs[:, 3], xs[:, 4], xs[:, 5]
+        biases[ch] = (float(xs[-1, i]), float(calibration[name][1] if name in calibration
+                                              else sd_end[i]))
+    held = {BIAS_STATES.get(k, k): v for k, v in plan["held"].items()}
+    weak = sorted(BIAS_STATES.get(k, k) for k in STATE_NAMES[9:]
+                  if k not in plan["held"] and ratio[STATE_NAMES.index(k)] > 0.5)
+    # air-relative velocity at the c.g.: V_b - C_bn W
+    air = _air_velocity(xs)
+    uu, vv, ww = air[:, 0], air[:, 1], air[:, 2]
     V = np.sqrt(uu * uu + vv * vv + ww * ww)
     states = {
         "alpha": np.arctan2(ww, uu), "beta": np.arcsin(vv / V), "tas": V,
         "phi": xs[:, 6], "theta": xs[:, 7],
-        "psi": (xs[:, 8] + math.pi) % (2 * math.pi) - math.pi,
+        "psi": ((xs[:, 8] + math.pi) % (2 * math.pi) - math.pi if plan["psi_output"]
+                else np.full(n, np.nan)),
     }
     for j, c in enumerate(INPUT_NAMES):
-        states[c] = np.asarray(task[c], dtype=float) - xs[:, 9 + j]
+        if j < 3 and not present["accelerometers"]:
+            states[c] = np.full(n, np.nan)
+        elif j < 3:
+            states[c] = acc[:, j] - xs[:, 9 + j]
+        else:
+            states[c] = rates[:, j - 3] - xs[:, 9 + j]
+    if "wind_n" not in plan["held"]:
+        for j, c in enumerate(WIND_STATES):
+            states[c] = xs[:, 18 + j]
+    lags = _lag_estimates(xs, z, arm, dt, plan) if s["estimate_lags"] else {}
+    observability = {k: plan[k] for k in ("beta", "psi", "wind", "forces")}
     return {"maneuver": man, "ok": True, "states": states, "biases": biases,
+            "held": held, "weak": weak, "observability": observability, "lags": lags,
             "innovations": stats, "skipped": skipped,
             "iterations": (float(out["iterations"].mean()), int(out["iterations"].max()))}
+
+
+def _air_velocity(xs: np.ndarray) -> np.ndarray:
+    """Air-relative body velocity ``V_b - C_bn W`` per sample, (n, 3)."""
+    cf, sf = np.cos(xs[:, 6]), np.sin(xs[:, 6])
+    ct, st = np.cos(xs[:, 7]), np.sin(xs[:, 7])
+    cp, sp = np.cos(xs[:, 8]), np.sin(xs[:, 8])
+    wn, we, wd = xs[:, 18], xs[:, 19], xs[:, 20]
+    # C_bn W (rows of C_bn = columns of C_nb)
+    wx = ct * cp * wn + ct * sp * we - st * wd
+    wy = (sf * st * cp - cf * sp) * wn + (sf * st * sp + cf * cp) * we + sf * ct * wd
+    wz = (cf * st * cp + sf * sp) * wn + (cf * st * sp - sf * cp) * we + cf * ct * wd
+    return xs[:, 3:6] - np.column_stack([wx, wy, wz])
+
+
+#: Channels whose time lag is estimated against the reconstruction (diagnostic).
+_LAG_CHANNELS = ("tas", "alpha", "beta", "phi", "theta")
+
+
+def _lag_estimates(xs: np.ndarray, z: np.ndarray, arm, dt: float, plan: Mapping) -> dict:
+    """Per channel: (lag, sigma) [s] of the measurement against the smoothed states."""
+    hx = np.array([measure(xs[k], None, None if arm is None else arm[k])
+                   for k in range(xs.shape[0])])
+    out = {}
+    for c in _LAG_CHANNELS:
+        if c == "beta" and plan["beta_pseudo"]:
+            continue
+        j = MEASUREMENT_NAMES.index(c)
+        if not np.isfinite(z[:, j]).any():
+            continue
+        lag, sd = estimate_lag(z[:, j] - hx[:, j], np.gradient(hx[:, j], dt))
+        if math.isfinite(lag):
+            out[c] = (lag, sd)
+    return out
+
+
+def _corrected(task: Mapping, geo: Mapping, dt: float) -> dict:
+    """The maneuver's channels with the known lags and vane calibrations undone."""
+    task = dict(task)
+    for c, lag in (geo.get("lag_s") or {}).items():
+        if c in task and lag:
+            task[c] = undo_lag(task[c], dt, float(lag), hold=c in INPUT_NAMES)
+    for c in ("alpha", "beta"):
+        if c in task:
+            scale = float(geo.get(f"{c}_vane_scale", 1.0))
+            offset = float(geo.get(f"{c}_vane_offset_rad", 0.0))
+            if scale != 1.0 or offset != 0.0:
+                task[c] = (np.asarray(task[c], dtype=float) - offset) / scale
+    return task
+
+
+def _gps_track(z: np.ndarray) -> float:
+    """Ground track [rad] at the start: GPS velocity, else the first ~2 s of positions."""
+    jn, je = MEASUREMENT_NAMES.index("vn_gps"), MEASUREMENT_NAMES.index("ve_gps")
+    ok = np.flatnonzero(np.isfinite(z[:, jn]) & np.isfinite(z[:, je]))
+    if ok.size:
+        return math.atan2(z[ok[0], je], z[ok[0], jn])
+    jx, jy = MEASUREMENT_NAMES.index("x_gps"), MEASUREMENT_NAMES.index("y_gps")
+    ok = np.flatnonzero(np.isfinite(z[:, jx]) & np.isfinite(z[:, jy]))
+    if ok.size < 2:
+        return math.nan
+    a, b = ok[0], ok[min(ok.size - 1, 200)]
+    return math.atan2(z[b, jy] - z[a, jy], z[b, jx] - z[a, jx])
 
 
 def _first_valid(z: np.ndarray, j: int) -> float:
@@ -305,7 +503,8 @@ def _first_valid(z: np.ndarray, j: int) -> float:
     return float(col[ok[0]]) if ok.size else math.nan
 
 
-def initial_state(z: np.ndarray, prior: Mapping) -> StateEstimate:
+def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = None,
+                  held: Mapping | None = None, task: Mapping | None = None) -> StateEstimate:
     """Initial state from the first valid air-data, attitude and GPS samples.
 
     Parameters
@@ -314,26 +513,55 @@ def initial_state(z: np.ndarray, prior: Mapping) -> StateEstimate:
         Measurements of one maneuver (NaN where missing).
     prior : mapping
         Initial standard deviations (:attr:`ReconstructionSettings.prior`).
+    present : mapping, optional
+        :func:`~simplexspline.aero.reconstruction.observability.channels_present`; None: all
+        channels of ``z`` that have data, still air.
+    held : mapping, optional
+        States held at their prior (their standard deviation is set to 1e-8).
+    task : mapping, optional
+        The maneuver's columns (for given ``wind_*``).
 
     Returns
     -------
     StateEstimate
-        Biases start at zero; the covariance is diagonal.
+        Biases start at zero, the wind at zero or the mean of the given ``wind_*``
+        columns; the covariance is diagonal.
     """
     m = {c: _first_valid(z, j) for j, c in enumerate(MEASUREMENT_NAMES)}
-    V, a, b = m["tas"], m["alpha"], m["beta"]
+    held = {} if held is None else held
+    gps = present is None or present["gps_velocity"] or present["gps_position"]
+    V, a = m["tas"], m["alpha"]
+    b = m["beta"] if math.isfinite(m["beta"]) else 0.0
     x0 = np.zeros(NX)
     x0[0:3] = [0.0 if not math.isfinite(m[c]) else m[c] for c in ("x_gps", "y_gps", "z_gps")]
     x0[3:6] = [V * math.cos(a) * math.cos(b), V * math.sin(b), V * math.sin(a) * math.cos(b)]
-    x0[6:9] = [m["phi"], m["theta"], m["psi"]]
+    psi, psi_sd = m["psi"], prior["attitude"]
+    if not math.isfinite(psi):
+        track = _gps_track(z)
+        if math.isfinite(track):
+            psi, psi_sd = track, prior["heading"]
+        else:
+            psi, psi_sd = 0.0, 1e-8      # not observable and not needed
+    x0[6:9] = [m["phi"], m["theta"], psi]
+    if task is not None and all(c in task for c in WIND_STATES):
+        x0[18:21] = [float(np.nanmean(task[c])) for c in WIND_STATES]
     sd = np.empty(NX)
     sd[0:3] = prior["position"]
     sd[3:6] = prior["velocity"]
-    sd[6:9] = prior["attitude"]
+    if not math.isfinite(m["beta"]):
+        sd[4] = max(prior["velocity"], 0.05 * V)
+    if gps and "wind_n" not in held:
+        sd[3:6] = np.maximum(sd[3:6], prior["wind"])
+    sd[6:8] = prior["attitude"]
+    sd[8] = psi_sd
     sd[9:12] = prior["accel_bias"]
     sd[12:15] = prior["gyro_bias"]
     sd[15:17] = prior["vane_bias"]
     sd[17] = prior["tas_bias"]
+    sd[18:21] = prior["wind"]
+    sd[21:23] = prior["vane_scale"]
+    for name in held:
+        sd[STATE_NAMES.index(name)] = 1e-8
     return StateEstimate(x0, np.diag(sd ** 2))
 
 
@@ -363,6 +591,9 @@ class Reconstruction:
         'measured' or 'differentiated': where pdot, qdot, rdot came from.
     unused_channels : list of str
         Measurement channels absent from the table (not used by the filter).
+    settings : ReconstructionSettings
+    thrust : {'columns', 'model', 'included'}
+        Where the subtracted thrust came from; 'included': none subtracted (in CX).
     """
 
     data: object
@@ -372,6 +603,68 @@ class Reconstruction:
     accelerations: str
     unused_channels: list
     settings: ReconstructionSettings
+    thrust: str = "columns"
+
+    def sensors(self) -> dict:
+        """What the reconstruction gave for each missing or estimated quantity.
+
+        Returns
+        -------
+        dict
+            ``beta``, ``psi``, ``wind``, ``forces``: statement -> number of maneuvers;
+            ``held``: state -> reason (held at its prior, not estimated: unobservable or
+            no sensor); ``weakly_observed``: states whose final sigma exceeds half their
+            prior in most maneuvers; ``lags_s``: channel -> median estimated lag [s] over
+            the maneuvers where it is significant (more than 3 sigma and half a sample);
+            ``thrust``, ``angular_accelerations``; ``flags``: coefficient -> why its data
+            are incomplete or its inputs unreliable.
+        """
+        out: dict = {}
+        ms = list(self.maneuvers.values())
+        for key in ("beta", "psi", "wind", "forces"):
+            counts: dict = {}
+            for r in ms:
+                st = r["observability"][key]
+                counts[st] = counts.get(st, 0) + 1
+            out[key] = counts
+        held: dict = {}
+        for r in ms:
+            for k, why in r["held"].items():
+                held.setdefault(k, why)
+        out["held"] = held
+        weak: dict = {}
+        for r in ms:
+            for k in r["weak"]:
+                weak[k] = weak.get(k, 0) + 1
+        out["weakly_observed"] = sorted(k for k, c in weak.items() if c > len(ms) / 2)
+        lags: dict = {}
+        dt = None
+        if len(self.data) > 1:
+            tt = self.data["t"].to_numpy(dtype=float)
+            dt = float(np.median(np.abs(np.diff(tt))))
+        for r in ms:
+            for ch, (lag, sd) in r["lags"].items():
+                if abs(lag) > 3 * sd and (dt is None or abs(lag) > dt / 2):
+                    lags.setdefault(ch, []).append(lag)
+        out["lags_s"] = {ch: float(np.median(v)) for ch, v in lags.items()
+                         if len(v) > len(ms) / 2}
+        out["thrust"] = {"columns": "subtracted (thrust_* columns)",
+                         "model": "subtracted (thrust model)",
+                         "included": "INCLUDED in CX (no thrust columns, no thrust model), "
+                                     "as in the paper"}[self.thrust]
+        out["angular_accelerations"] = self.accelerations
+        flags = {}
+        if any(st.startswith("NOT computed") for st in out["forces"]):
+            for c in ("CX", "CY", "CZ"):
+                flags[c] = "not computed in some or all maneuvers (no accelerometers)"
+        if any(st.startswith("NOT OBSERVABLE") for st in out["beta"]):
+            for c in ("CY", "Cl", "Cn"):
+                flags.setdefault(c, "beta not observable (no sideslip vane, no GPS): models "
+                                    "in beta unreliable")
+        if self.thrust == "included":
+            flags.setdefault("CX", "includes thrust")
+        out["flags"] = flags
+        return out
 
     def bias_table(self):
         """Estimated biases per maneuver: a DataFrame with ``<channel>`` and
@@ -390,7 +683,7 @@ class Reconstruction:
         if self.maneuvers:
             bt = self.bias_table()
             lines.append("estimated biases (median over maneuvers, median sigma):")
-            for ch in BIAS_STATES.values():
+            for ch in (*BIAS_STATES.values(), *WIND_STATES, *SCALE_STATES):
                 lines.append(f"  {ch:>6s}: {bt[ch].median(): .4g} +- "
                              f"{bt[ch + '_sigma'].median():.2g}")
             lines.append("innovations (median over maneuvers): normalised mean, std "
@@ -404,10 +697,26 @@ class Reconstruction:
                                  f"{np.median([s['white'] for s in st]):.2f}")
         if self.unused_channels:
             lines.append(f"channels not in the data (not used): {self.unused_channels}")
-        lines.append("coefficients: thrust " + ("subtracted (thrust_* columns)"
-                                                if self.thrust_subtracted else
-                                                "INCLUDED (no thrust_* columns), as in the "
-                                                "paper")
+        if self.maneuvers:
+            sens = self.sensors()
+            lines.append("sensors and observability (statement: maneuvers):")
+            for key in ("beta", "psi", "wind", "forces"):
+                for st, c in sens[key].items():
+                    lines.append(f"  {key}: {st}: {c}")
+            for k, why in sens["held"].items():
+                lines.append(f"  {k}: not estimated, {why}")
+            if sens["weakly_observed"]:
+                lines.append(f"  weakly observed (sigma > half the prior in most maneuvers): "
+                             f"{sens['weakly_observed']}")
+            for ch, lag in sens["lags_s"].items():
+                lines.append(f"  {ch}: lags the reconstruction by {lag:.3g} s (median): set "
+                             f"metadata sensor_geometry.lag_s.{ch}")
+            for c, why in sens["flags"].items():
+                lines.append(f"  {c}: {why}")
+        lines.append("coefficients: thrust " + {"columns": "subtracted (thrust_* columns)",
+                                                "model": "subtracted (thrust model)",
+                                                "included": "INCLUDED (no thrust_* columns), "
+                                                            "as in the paper"}[self.thrust]
                      + f"; angular accelerations {self.accelerations}")
         for m, r in sorted(self.maneuvers.items()):
             if r["skipped"]:
@@ -417,8 +726,27 @@ class Reconstruction:
         return "\n".join(lines)
 
 
-def _tasks(df) -> list[dict]:
-    cols = ["t", "h", *INPUT_NAMES, *[c for c in MEASUREMENT_NAMES if c in df.columns]]
+_EXTRA_COLUMNS = ("x_cg", "y_cg", "z_cg", *WIND_STATES)
+
+
+def _geometry(meta: Mapping) -> dict:
+    """Metadata ``sensor_geometry`` as the plain dict the workers use."""
+    geo = sensor_geometry(meta)
+    return {"alpha_vane_position_m": geo.alpha_vane.position_m,
+            "alpha_vane_scale": geo.alpha_vane.scale,
+            "alpha_vane_offset_rad": geo.alpha_vane.offset_rad,
+            "beta_vane_position_m": geo.beta_vane.position_m,
+            "beta_vane_scale": geo.beta_vane.scale,
+            "beta_vane_offset_rad": geo.beta_vane.offset_rad,
+            "imu_position_m": geo.imu_position_m, "lag_s": dict(geo.lag_s),
+            "given": list(geo.given)}
+
+
+def _tasks(df, geometry: dict | None = None) -> list[dict]:
+    have = set(present_columns(df))
+    cols = ["t", "h", *[c for c in (*INPUT_NAMES, *MEASUREMENT_NAMES, *_EXTRA_COLUMNS)
+                        if c in have and c not in ("t", "h")]]
+    cols = list(dict.fromkeys(cols))
     man = df["maneuver"].to_numpy()
     order = np.argsort(man, kind="stable")
     bounds = np.flatnonzero(np.diff(man[order])) + 1
@@ -430,6 +758,7 @@ def _tasks(df) -> list[dict]:
         idx = idx[np.argsort(arrays["t"][idx], kind="stable")]
         task = {c: arrays[c][idx] for c in cols}
         task["maneuver"] = int(man[idx[0]])
+        task["geometry"] = geometry or {}
         task["rows"] = idx
         tasks.append(task)
     return tasks
@@ -459,9 +788,39 @@ def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
     return results
 
 
+def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: int,
+                          progress: bool) -> dict:
+    """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
+
+    Each maneuver's final estimate is a posterior of the same constant under the same
+    prior; their combination counts the prior once:
+    ``w = sum(1/sd_i^2) - (N - 1)/sd_0^2``, ``value = sum(v_i/sd_i^2) / w``, ``sd = w^-1/2``.
+    A state no maneuver estimates (no GPS anywhere, no vane), or whose combined sigma is
+    above half its prior (the campaign barely observes it), is left out: the second pass
+    then holds it at zero when the maneuver has no GPS, or estimates it per maneuver.
+    """
+    gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
+    if not gps:
+        return {}
+    gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
+    s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
+    results = _run_all(gps, s, workers, progress)
+    out = {}
+    for k in CALIBRATION_STATES:
+        est = [r["calibration"][k] for r in results if r["ok"] and k in r["calibration"]]
+        if not est:
+            continue
+        sd0 = est[0][2]
+        w = sum(1 / sd ** 2 for _, sd, _ in est) - (len(est) - 1) / sd0 ** 2
+        if w <= 0 or w ** -0.5 > 0.5 * sd0:
+            continue              # the campaign does not observe it: left at its prior
+        out[k] = (float(sum(v / sd ** 2 for v, sd, _ in est) / w), float(w ** -0.5))
+    return out
+
+
 def reconstruct(df, metadata: Mapping | None = None, *,
                 settings: ReconstructionSettings | None = None, workers: int | None = 1,
-                progress: bool = False) -> Reconstruction:
+                progress: bool = False, thrust_model=None) -> Reconstruction:
     """Flight path reconstruction and aerodynamic coefficients of a flight-test campaign.
 
     Parameters
@@ -476,6 +835,9 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         Worker processes (None: number of CPUs). The result does not depend on it.
     progress : bool
         Show a progress bar.
+    thrust_model : callable or ThrustModel, optional
+        Used when the table has no ``thrust_*`` columns (see
+        :func:`~simplexspline.aero.data.coefficients.aerodynamic_coefficients`).
 
     Returns
     -------
@@ -503,7 +865,12 @@ def reconstruct(df, metadata: Mapping | None = None, *,
             os.cpu_count() or 1)
     if int(workers) != workers or workers < 1:
         raise InputError(f"workers must be a positive integer, got {workers!r}")
-    tasks = _tasks(df)
+    tasks = _tasks(df, _geometry(meta))
+    calibration = {}
+    if settings.air_data_calibration == "campaign":
+        calibration = _campaign_calibration(tasks, settings, int(workers), progress)
+        for task in tasks:
+            task["calibration"] = calibration
     results = _run_all(tasks, settings.to_dict(), int(workers), progress)
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
@@ -511,7 +878,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         if not res["ok"]:
             rejected[m] = res["reason"]
             continue
-        accepted[m] = {k: res[k] for k in ("biases", "innovations", "iterations", "skipped")}
+        accepted[m] = {k: res[k] for k in ("biases", "innovations", "iterations", "skipped",
+                                           "held", "weak", "observability", "lags")}
         rows.append(task["rows"])
         parts.append(res["states"])
     if not accepted:
@@ -521,14 +889,18 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     out = df.iloc[idx].copy()
     pos = np.empty(len(df), dtype=np.int64)
     pos[idx] = np.arange(idx.size)
-    for name in parts[0]:
-        col = np.empty(idx.size)
+    for name in dict.fromkeys(k for st in parts for k in st):
+        col = np.full(idx.size, np.nan)
         for r, st in zip(rows, parts):
-            col[pos[r]] = st[name]
+            if name in st:
+                col[pos[r]] = st[name]
         out[name] = col
     coef, thrust = aerodynamic_coefficients(
         out, meta, accelerations=settings.accelerations,
-        half_window=settings.diff_half_window, degree=settings.diff_degree)
+        half_window=settings.diff_half_window, degree=settings.diff_degree,
+        thrust_model=thrust_model)
+    thrust_source = ("columns" if all(c in present_columns(df) for c in THRUST_COLUMNS)
+                     else "model" if thrust else "included")
     measured_acc = settings.accelerations == "measured" or (
         settings.accelerations == "auto" and all(c in df.columns
                                                  for c in ("pdot", "qdot", "rdot")))
@@ -538,14 +910,18 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     rec = Reconstruction(data=out, maneuvers=accepted, rejected=rejected,
                          thrust_subtracted=thrust,
                          accelerations="measured" if measured_acc else "differentiated",
-                         unused_channels=unused, settings=settings)
+                         unused_channels=unused, settings=settings, thrust=thrust_source)
+    sensors = rec.sensors()
     meta["reconstruction"] = jsonable({
         "method": "iterated extended Kalman filter + RTS smoother (docs/reconstruction.md)",
         "settings": settings.to_dict(),
-        "thrust_subtracted": thrust, "accelerations": rec.accelerations,
-        "unused_channels": unused,
-        "maneuvers": {m: {"biases": r["biases"], "iterations": r["iterations"],
-                          "innovations": r["innovations"], "skipped": r["skipped"]}
+        "thrust_subtracted": thrust, "thrust": thrust_source,
+        "accelerations": rec.accelerations,
+        "unused_channels": unused, "sensors": sensors,
+        "sensor_geometry_given": _geometry(meta)["given"],
+        "air_data_calibration": calibration,
+        "maneuvers": {m: {k: r[k] for k in ("biases", "iterations", "innovations", "skipped",
+                                            "held", "weak", "observability", "lags")}
                       for m, r in accepted.items()},
         "rejected": rejected,
     })

@@ -1,0 +1,171 @@
+"""Benchmark: the default identification on aircraft, conditions and maneuvers it was not
+developed on (issue 19).
+
+    python benchmarks/bench_generalization.py [--quick] [--aircraft f16,c172p]
+        [--variants paper-gps,alternative-nogps] [--maneuvers 40] [--seed 101]
+        [--workers 2] [--out benchmarks/results/generalization]
+
+For every aircraft and data variant it simulates a campaign at the midpoints of the
+aircraft's default condition grid (:meth:`ConditionGrid.between`: conditions not used in
+development) with a seed other than 0, runs the **default** identification
+(:func:`simplexspline.aero.identify` with no settings, as ``simplexspline identify DATA``)
+and prints one row per coefficient:
+
+* ``true/noise``: RMS of the validation model against the true coefficient, divided by the
+  RMS of the reconstructed coefficient's error against the truth (the noise identify
+  reports). Targets: <= 1 with GPS, <= 1.5 without;
+* ``rel. RMS`` and ``R2`` on the validation maneuvers, against the paper's Table 2
+  (``PAPER_TABLE2``): target within Table 2 wherever the coefficient is excited (R2 well
+  above 0);
+* the seconds of the simulation and of the identification.
+
+Variants: ``paper`` or ``alternative`` (the other excitation design and pilot:
+:meth:`FlightProtocol.alternative`), each ``-gps`` (GPS position and velocity columns kept)
+or ``-nogps`` (dropped). One campaign per aircraft and design serves both GPS variants.
+The table is also written as JSON and Markdown under ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+from simplexspline._files import jsonable, write_text
+from simplexspline.aero import identify
+from simplexspline.aero.selection.validation import PAPER_TABLE2
+from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, available_aircraft
+
+GPS_COLUMNS = ("x_gps", "y_gps", "z_gps", "vn_gps", "ve_gps", "vd_gps")
+VARIANTS = ("paper-gps", "paper-nogps", "alternative-gps", "alternative-nogps")
+#: rms_true / noise targets per GPS variant (issue 19)
+TARGET = {"gps": 1.0, "nogps": 1.5}
+
+
+def campaign(aircraft: str, design: str, maneuvers: int, seed: int, workers: int):
+    """Simulate one campaign of ``design`` ('paper' or 'alternative'); (table, seconds)."""
+    protocol = FlightProtocol.alternative() if design == "alternative" else FlightProtocol()
+    t0 = time.perf_counter()
+    df = Campaign(aircraft, maneuvers=maneuvers, seed=seed, grid=ConditionGrid.between(aircraft),
+                  protocol=protocol).run(workers=workers, progress=False)
+    return df, time.perf_counter() - t0
+
+
+def identify_variant(df, gps: bool) -> tuple[list[dict], float, list[str]]:
+    """Default identification with or without the GPS columns; rows, seconds, warnings."""
+    data = df if gps else df.drop(columns=[c for c in GPS_COLUMNS if c in df.columns])
+    data.attrs = df.attrs
+    t0 = time.perf_counter()
+    result = identify(data)
+    seconds = time.perf_counter() - t0
+    rows = []
+    for c, entry in result.summary()["coefficients"].items():
+        rows.append({"coefficient": c, "rms_true": entry.get("rms_true"),
+                     "noise_rms": entry.get("noise_rms"),
+                     "true_over_noise": entry.get("rms_true_over_noise"),
+                     "rrms": entry["rrms"], "r2": entry["r2"], "paper_rrms": PAPER_TABLE2.get(c),
+                     "label": entry["label"]})
+    return rows, seconds, list(result.warnings)
+
+
+def _fmt(x, spec: str) -> str:
+    return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def markdown(rows: list[dict]) -> str:
+    """The table as Markdown (one row per aircraft, variant and coefficient)."""
+    head = ("| aircraft | variant | coefficient | rms_true | noise_rms | true/noise | target | "
+            "rel. RMS | Table 2 | R2 | sim s | identify s |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in rows:
+        paper = r["paper_rrms"]
+        lines.append(
+            f"| {r['aircraft']} | {r['variant']} | {r['coefficient']} | "
+            f"{_fmt(r['rms_true'], '.2e')} | {_fmt(r['noise_rms'], '.2e')} | "
+            f"{_fmt(r['true_over_noise'], '.2f')} | {r['target']:.1f} | "
+            f"{100 * r['rrms']:.2f} % | {'-' if paper is None else f'{100 * paper:.2f} %'} | "
+            f"{r['r2']:.3f} | {r['sim_s']:.0f} | {r['identify_s']:.0f} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true",
+                    help="smoke run: f16 and c172p, 16 maneuvers, the alternative design")
+    ap.add_argument("--aircraft", default=None,
+                    help="comma-separated aircraft (default: f16,global5000,c172p,A4)")
+    ap.add_argument("--variants", default=None,
+                    help=f"comma-separated variants from {','.join(VARIANTS)} (default: all)")
+    ap.add_argument("--maneuvers", type=int, default=None, help="maneuvers per campaign (40)")
+    ap.add_argument("--seed", type=int, default=101, help="campaign seed (101; never 0)")
+    ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
+                    help="simulation worker processes (2)")
+    ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results"
+                    / "generalization", help="directory of the JSON and Markdown tables")
+    args = ap.parse_args(argv)
+    aircraft = (args.aircraft.split(",") if args.aircraft
+                else ["f16", "c172p"] if args.quick else ["f16", "global5000", "c172p", "A4"])
+    variants = (args.variants.split(",") if args.variants
+                else ["alternative-gps", "alternative-nogps"] if args.quick else list(VARIANTS))
+    maneuvers = args.maneuvers or (16 if args.quick else 40)
+    for a in aircraft:
+        if a not in available_aircraft():
+            ap.error(f"unknown aircraft {a!r}: choose from {available_aircraft()}")
+    for v in variants:
+        if v not in VARIANTS:
+            ap.error(f"unknown variant {v!r}: choose from {list(VARIANTS)}")
+    if args.seed == 0:
+        ap.error("seed 0 is the development seed: choose another")
+
+    rows, runs = [], []
+    print(f"{'aircraft':<11} {'variant':<18} {'C':<3} {'rms_true':>9} {'noise':>9} "
+          f"{'true/noise':>10} {'target':>6} {'rel.RMS':>8} {'Table2':>7} {'R2':>6} "
+          f"{'sim s':>6} {'id s':>6}", flush=True)
+    for a in aircraft:
+        for design in ("paper", "alternative"):
+            wanted = [v for v in variants if v.startswith(design + "-")]
+            if not wanted:
+                continue
+            df, sim_s = campaign(a, design, maneuvers, args.seed, args.workers)
+            s = df.attrs["summary"]
+            for v in wanted:
+                gps = v.endswith("-gps")
+                coeff_rows, id_s, warnings = identify_variant(df, gps)
+                runs.append({"aircraft": a, "variant": v, "sim_s": sim_s, "identify_s": id_s,
+                             "maneuvers_kept": s["maneuvers_kept"], "samples": s["samples"],
+                             "warnings": warnings})
+                for r in coeff_rows:
+                    r.update(aircraft=a, variant=v, target=TARGET["gps" if gps else "nogps"],
+                             sim_s=sim_s, identify_s=id_s)
+                    rows.append(r)
+                    paper = r["paper_rrms"]
+                    print(f"{a:<11} {v:<18} {r['coefficient']:<3} "
+                          f"{_fmt(r['rms_true'], '9.2e')} {_fmt(r['noise_rms'], '9.2e')} "
+                          f"{_fmt(r['true_over_noise'], '10.2f')} {r['target']:>6.1f} "
+                          f"{100 * r['rrms']:>7.2f}% "
+                          f"{'-' if paper is None else f'{100 * paper:.2f}%':>7} "
+                          f"{r['r2']:>6.3f} {sim_s:>6.0f} {id_s:>6.0f}", flush=True)
+    meets = [r for r in rows if r["true_over_noise"] is not None
+             and r["true_over_noise"] <= r["target"]]
+    print(f"\n{len(meets)} of {len(rows)} coefficient models at or below their rms_true/noise "
+          "target", flush=True)
+    args.out.mkdir(parents=True, exist_ok=True)
+    settings = {"aircraft": aircraft, "variants": variants, "maneuvers": maneuvers,
+                "seed": args.seed, "conditions": "ConditionGrid.between (grid midpoints)",
+                "command": "python benchmarks/bench_generalization.py "
+                           + " ".join(sys.argv[1:] if argv is None else argv)}
+    write_text(args.out / "generalization.json",
+               json.dumps(jsonable({"settings": settings, "runs": runs, "rows": rows}),
+                          indent=1) + "\n")
+    write_text(args.out / "generalization.md",
+               f"Command: `{settings['command']}`\n\n{markdown(rows)}\n")
+    print(f"written {args.out / 'generalization.json'} and generalization.md")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,182 @@
+"""Which states a maneuver's channels can observe: the plan the filter follows.
+
+Per maneuver, from the channels that hold data (a column that is absent or entirely NaN in
+the maneuver counts as missing), :func:`observability_plan` decides which states the filter
+estimates and which it holds at their prior (variance at the numerical floor, so the gain
+never moves them), and says why. Rules (each one a structural observability argument; the
+filter's own variance reduction is checked afterwards by :func:`variance_reduction`):
+
+* **no GPS** (neither velocity nor position): the wind is unobservable (air data and IMU
+  only see the air-relative motion), and so are constant air-data errors: an airspeed bias,
+  a vane offset or scale factor change the air-relative velocity by a constant that the
+  kinematics see only through the small rotation terms ``omega x V``. Wind held at zero (or
+  at the ``wind_*`` columns when given), air-data errors held at zero: the reconstructed
+  alpha, beta and V carry the sensors' calibration errors, the same in every maneuver,
+  instead of a different guess per maneuver.
+* **no sideslip vane**: its offset and scale are not estimated. With GPS, the changes of
+  beta follow from the lateral kinematics (ay, p, r, phi and the GPS velocities), but a
+  constant crosswind and a constant sideslip look the same in straight flight; without GPS
+  the lateral velocity is a dead-reckoning integral of a biased ``ay``. Either way the
+  filter keeps the kinematic dynamics and assumes a zero mean over the maneuver (a
+  pseudo-measurement beta = 0 with a wide sigma, ``beta_pseudo_std``: maneuvers start from
+  trimmed, near-symmetric flight); without GPS the models in beta (CY, Cl, Cn) are flagged.
+* **no heading**: with GPS velocities the heading follows from the GPS track, the air data
+  and the wind (well in turns, weakly in straight flight); without GPS it is not observable
+  and not needed (nothing else depends on it): it is not reconstructed (NaN).
+* **no accelerometers**: the body velocities become a random walk observed by the air data
+  (and GPS); accelerometer biases are not estimated and the force coefficients are not
+  computed (moment coefficients only).
+* **vane scale factors** are estimated only with GPS and when asked for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+__all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "channels_present",
+           "heading_excursion", "observability_plan", "variance_reduction"]
+
+GPS_VELOCITY = ("vn_gps", "ve_gps", "vd_gps")
+GPS_POSITION = ("x_gps", "y_gps", "z_gps")
+ACCELEROMETERS = ("ax", "ay", "az")
+_AIR_DATA_ERRORS = ("btas", "balpha", "bbeta")
+_WIND = ("wind_n", "wind_e", "wind_d")
+
+
+def _has(task: Mapping, name: str) -> bool:
+    x = task.get(name)
+    return x is not None and bool(np.isfinite(np.asarray(x, dtype=float)).any())
+
+
+def channels_present(task: Mapping) -> dict:
+    """Which sensor groups hold data in one maneuver.
+
+    Parameters
+    ----------
+    task : mapping
+        Column name -> (n,) array of one maneuver.
+
+    Returns
+    -------
+    dict of str to bool
+        ``gps_velocity``, ``gps_position`` (all three axes each), ``accelerometers``,
+        ``beta``, ``psi``, ``wind_given`` (``wind_*`` columns).
+    """
+    return {
+        "gps_velocity": all(_has(task, c) for c in GPS_VELOCITY),
+        "gps_position": all(_has(task, c) for c in GPS_POSITION),
+        "accelerometers": all(_has(task, c) for c in ACCELEROMETERS),
+        "beta": _has(task, "beta"),
+        "psi": _has(task, "psi"),
+        "wind_given": all(_has(task, c) for c in _WIND),
+    }
+
+
+def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True) -> dict:
+    """The states to estimate and to hold, with the reasons.
+
+    Parameters
+    ----------
+    present : mapping
+        :func:`channels_present`.
+    estimate_vane_scale : bool
+        Estimate the vane scale-factor errors where observable (with GPS).
+
+    Returns
+    -------
+    dict
+        ``held``: state name -> reason (held at its prior); ``beta``, ``psi``, ``wind``,
+        ``forces``: one-line statements of what the reconstruction gives for each;
+        ``beta_pseudo``: True when beta is stabilised by a zero-mean pseudo-measurement;
+        ``psi_output``: False when the heading is not reconstructed.
+    """
+    gps = bool(present["gps_velocity"] or present["gps_position"])
+    held = {}
+    if not gps:
+        why = "unobservable without GPS"
+        for s in _WIND:
+            held[s] = why + (": held at the given wind_* columns" if present["wind_given"]
+                             else ": held at zero (still air)")
+        for s in _AIR_DATA_ERRORS:
+            held[s] = why + ": held at zero (the sensor's calibration error stays in the data)"
+        held["kalpha"] = held["kbeta"] = why + ": held at zero"
+    if not estimate_vane_scale:
+        held.setdefault("kalpha", "not requested (estimate_vane_scale=False)")
+        held.setdefault("kbeta", "not requested (estimate_vane_scale=False)")
+    if not present["beta"]:
+        held["bbeta"] = "no sideslip vane"
+        held["kbeta"] = "no sideslip vane"
+    if not present["accelerometers"]:
+        for s in ("bax", "bay", "baz"):
+            held[s] = "no accelerometers"
+    if present["beta"]:
+        beta = "measured (vane), reconstructed"
+    elif gps:
+        beta = ("estimated from the lateral kinematics and GPS (no sideslip vane), zero mean "
+                "over the maneuver assumed")
+    else:
+        beta = ("NOT OBSERVABLE (no sideslip vane, no GPS): dead-reckoned from ay, p, r, phi "
+                "with a zero mean assumed; CY, Cl, Cn models in beta are unreliable")
+    if present["psi"]:
+        psi = "measured, reconstructed"
+    elif present["gps_velocity"]:
+        psi = "estimated from the GPS track, air data and wind (no heading channel)"
+    elif gps:
+        psi = "estimated from GPS positions (no heading channel): weak"
+    else:
+        psi = "not observable (no heading, no GPS): not reconstructed (NaN); not needed"
+    if gps:
+        wind = "estimated (constant or random walk per maneuver, GPS)"
+    elif present["wind_given"]:
+        wind = "not observable without GPS: the given wind_* columns are used"
+    else:
+        wind = "not observable without GPS: still air assumed (held at zero)"
+    forces = ("computed" if present["accelerometers"] else
+              "NOT computed (no accelerometers): moment coefficients only")
+    return {"held": held, "beta": beta, "psi": psi, "wind": wind, "forces": forces,
+            "beta_pseudo": not present["beta"],
+            "psi_output": bool(present["psi"] or gps)}
+
+
+def variance_reduction(prior_sd: np.ndarray, posterior_sd: np.ndarray) -> np.ndarray:
+    """Posterior over prior standard deviation per state (1: the data taught nothing).
+
+    Parameters
+    ----------
+    prior_sd, posterior_sd : (m,) ndarray
+
+    Returns
+    -------
+    (m,) ndarray
+        A ratio above about 0.5 marks a state the maneuver barely observes.
+    """
+    prior_sd = np.asarray(prior_sd, dtype=float)
+    return np.asarray(posterior_sd, dtype=float) / np.where(prior_sd > 0, prior_sd, np.inf)
+
+
+def heading_excursion(task: Mapping) -> float:
+    """Heading change within a maneuver [rad], from the gyros and attitude.
+
+    ``max - min`` of the integrated Euler heading rate ``(q sin(phi) + r cos(phi)) /
+    cos(theta)``: what separates a constant wind from constant air-data errors (the
+    campaign calibration prefers maneuvers that turn).
+
+    Parameters
+    ----------
+    task : mapping
+        ``t`` [s], ``q``, ``r`` [rad/s], ``phi``, ``theta`` [rad], (n,) arrays each.
+
+    Returns
+    -------
+    float
+    """
+    t = np.asarray(task["t"], dtype=float)
+    if t.size < 2:
+        return 0.0
+    phi, theta = np.asarray(task["phi"], dtype=float), np.asarray(task["theta"], dtype=float)
+    psidot = ((np.asarray(task["q"], dtype=float) * np.sin(phi)
+               + np.asarray(task["r"], dtype=float) * np.cos(phi)) / np.cos(theta))
+    psi = np.nancumsum(psidot) * float(np.median(np.diff(t)))
+    return float(np.nanmax(psi) - np.nanmin(psi))

@@ -1,0 +1,124 @@
+"""Known sensor geometry and calibration applied before the filter, and lag estimates after.
+
+Numeric kernels on plain arrays (one maneuver, uniform sampling). The geometry comes from
+metadata ``sensor_geometry`` (:func:`simplexspline.aero.data.flight_data.sensor_geometry`);
+the c.g. from the ``x_cg, y_cg, z_cg`` columns when present.
+
+* Lags: a channel recorded ``lag`` seconds late is moved back, ``z(t) <- z(t + lag)``
+  (linear interpolation; the last ``lag`` seconds of a measurement become NaN, i.e. not
+  measured; IMU inputs hold their last value).
+* Vanes: ``angle = (reading - offset) / scale``; the position enters the measurement model
+  as ``omega x r`` (:func:`rotation_velocity`).
+* Accelerometers away from the c.g.: ``a_cg = a - omega x (omega x r) - omegadot x r``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["undo_lag", "rotation_velocity", "specific_force_at_cg", "estimate_lag"]
+
+
+def undo_lag(x: np.ndarray, dt: float, lag: float, *, hold: bool = False) -> np.ndarray:
+    """The channel as if recorded without its lag: ``y[k] = x(t_k + lag)``.
+
+    Parameters
+    ----------
+    x : (n,) ndarray
+        Samples at uniform spacing ``dt`` [s].
+    dt, lag : float
+        Sample interval and lag [s] (lag >= 0).
+    hold : bool
+        Beyond the record hold the last value (inputs) instead of NaN (measurements).
+
+    Returns
+    -------
+    (n,) ndarray
+    """
+    x = np.asarray(x, dtype=float)
+    if lag == 0 or x.size < 2:
+        return x.copy()
+    k = np.arange(x.size) + lag / dt
+    y = np.interp(k, np.arange(x.size), x)
+    if not hold:
+        y[k > x.size - 1] = np.nan
+    return y
+
+
+def rotation_velocity(rates: np.ndarray, arm: np.ndarray) -> np.ndarray:
+    """``omega x r`` [m/s] per sample: the velocity a point at arm ``r`` adds to the c.g.'s.
+
+    Parameters
+    ----------
+    rates : (n, 3) ndarray
+        Body rates p, q, r [rad/s].
+    arm : (3,) or (n, 3) ndarray
+        Position from the c.g., body axes [m].
+
+    Returns
+    -------
+    (n, 3) ndarray
+    """
+    return np.cross(rates, np.broadcast_to(arm, rates.shape))
+
+
+def specific_force_at_cg(acc: np.ndarray, rates: np.ndarray, dt: float,
+                         arm: np.ndarray) -> np.ndarray:
+    """Specific force at the c.g. from accelerometers at arm ``r``.
+
+    ``a_cg = a - omega x (omega x r) - omegadot x r``, with omegadot the central difference of
+    the rates (one-sided at the ends).
+
+    Parameters
+    ----------
+    acc : (n, 3) ndarray
+        Measured specific force [m/s^2].
+    rates : (n, 3) ndarray
+        Body rates [rad/s].
+    dt : float
+        Sample interval [s].
+    arm : (3,) or (n, 3) ndarray
+        Accelerometer position from the c.g. [m].
+
+    Returns
+    -------
+    (n, 3) ndarray
+    """
+    r = np.broadcast_to(arm, rates.shape)
+    wdot = np.gradient(rates, dt, axis=0) if len(rates) > 1 else np.zeros_like(rates)
+    return acc - np.cross(rates, np.cross(rates, r)) - np.cross(wdot, r)
+
+
+def estimate_lag(residual: np.ndarray, rate_of_change: np.ndarray) -> tuple[float, float]:
+    """Lag of a channel from its residual against the reconstruction: ``e ~ c - lag * ydot``.
+
+    A channel recorded ``lag`` seconds late differs from the reconstructed signal ``y`` by
+    ``-lag * ydot`` to first order; a least-squares fit with a constant gives the lag and
+    its standard error.
+
+    Parameters
+    ----------
+    residual : (n,) ndarray
+        Measured minus reconstructed (NaN where not measured).
+    rate_of_change : (n,) ndarray
+        Time derivative of the reconstructed signal [unit/s].
+
+    Returns
+    -------
+    lag, sigma : float
+        Lag [s] (positive: the channel is late) and its standard error; NaN when the
+        signal does not change enough to tell.
+    """
+    ok = np.isfinite(residual) & np.isfinite(rate_of_change)
+    e, d = residual[ok], rate_of_change[ok]
+    if e.size < 10:
+        return float("nan"), float("nan")
+    d = d - d.mean()
+    e = e - e.mean()
+    sxx = float(d @ d)
+    if sxx <= 0:
+        return float("nan"), float("nan")
+    lag = -float(d @ e) / sxx
+    res = e + lag * d
+    sigma = float(np.sqrt((res @ res) / max(e.size - 2, 1) / sxx))
+    return lag, sigma
