@@ -295,3 +295,19 @@ def test_parallel_coefficients_equal_the_serial_run(table):
                               serial.results[c].model.spline.coefficients)
         assert np.array_equal(parallel.validation[f"model_{c}"], serial.validation[f"model_{c}"])
     assert parallel.warnings == serial.warnings
+
+
+def test_coefficients_the_data_cannot_give_are_left_out_and_said(table):
+    """No accelerometers: the reconstruction leaves the force coefficients NaN; the
+    moments are still identified, and the summary says what was left out."""
+    no_forces = table.copy()
+    for c in ("CX", "CY", "CZ"):
+        no_forces[c] = np.nan
+    res = identify(no_forces, settings=IdentificationSettings(select=False, workers=1))
+    assert set(res.results) == {"Cl", "Cm", "Cn"}
+    assert sum("CX is not in the data" in w for w in res.warnings) == 1
+    # asked for by name, a missing coefficient is an error, not a silent omission
+    with pytest.raises(FlightDataError, match=r"NaN or inf in column\(s\) \['CX'\]"):
+        identify(no_forces, settings=IdentificationSettings(
+            coefficients=("CX", "Cm"), structures={"CX": Structure("CX", ("alpha",))},
+            select=False))

@@ -20,7 +20,7 @@ import time
 import warnings
 from collections.abc import Callable, Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -477,13 +477,15 @@ def identify(df, metadata: Mapping | None = None, *,
     t_start = time.perf_counter()
     meta = dict(df.attrs if metadata is None else metadata)
     structures = settings.starting_structures()
-    data, rec_note, used = _identification_data(df, meta, settings, structures, progress, log)
+    data, rec_note, used, settings, dropped = _identification_data(df, meta, settings,
+                                                                   structures, progress, log)
     ident, valid, coverage = _split(data, settings, log)
     columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
                if c in used or c in settings.selection.candidates}
     columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
     results, notes = _fit_coefficients(structures, ident, valid, columns, coverage, settings,
                                        source, progress, log)
+    notes = dropped + notes
     prov = {"software": f"simplexspline {__version__}",
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "seconds": round(time.perf_counter() - t_start, 2),
@@ -497,7 +499,8 @@ def identify(df, metadata: Mapping | None = None, *,
 def _identification_data(df, meta: dict, settings: IdentificationSettings,
                          structures: Mapping, progress: bool, log):
     """Step 1: the checked data with coefficients (reconstructed first when raw), a note on
-    the reconstruction, and the columns the structures and the selection use."""
+    the reconstruction, the columns the structures and the selection use, the settings
+    without the coefficients the data cannot give, and what was left out (notes)."""
     if "maneuver" not in df.columns:
         raise FlightDataError("column 'maneuver' is missing: the validation split is made "
                               "by maneuver")
@@ -513,6 +516,20 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
     for name, values in angle_rates(data, meta).items():
         if name not in data.columns:        # derived candidates: alpha', beta' made
             data[name] = values             # non-dimensional like the body rates
+    # coefficients the data cannot give (no accelerometers: no force coefficients) are
+    # left out and said so, unless the user asked for them by name
+    absent = [c for c in settings.coefficients if c not in data.columns
+              or not np.isfinite(data[c].to_numpy(dtype=float)).any()]
+    dropped = []
+    if absent and len(absent) < len(settings.coefficients) and not given:
+        dropped = [f"{c} is not in the data (the reconstruction could not compute it, "
+                   "e.g. a force coefficient without accelerometers): not modelled"
+                   for c in absent]
+        for msg in dropped:
+            log(f"warning: {msg}")
+        settings = replace(settings, coefficients=tuple(c for c in settings.coefficients
+                                                        if c not in absent))
+        structures = {c: v for c, v in structures.items() if c not in absent}
     _check_columns(data, given, settings.coefficients)
     # the structures' columns that the data have must be clean (a preset's missing ones
     # are left out later); candidates of the search with gaps are only not offered
@@ -536,7 +553,7 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
         raise FlightDataError(f"NaN or inf in column(s) {cols} in {int(bad_rows.sum())} rows "
                               f"of maneuver(s) {mans[:10].tolist()}: drop those maneuvers or "
                               "fill the gaps before identification")
-    return data, rec_note, used
+    return data, rec_note, used, settings, dropped
 
 
 @dataclass(frozen=True)
