@@ -141,6 +141,10 @@ def _null_directions(Q: np.ndarray, counts: np.ndarray):
     return N, np.unique(js)
 
 
+#: :func:`_undetermined` works on one dense copy of H N up to this many entries.
+DENSE_UNDETERMINED = 20_000_000
+
+
 def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
     """Basis (full coordinates, sparse) of null(Q) intersected with null(H).
 
@@ -156,14 +160,21 @@ def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
     pattern = (abs(HN).T @ abs(HN)).tocsr()
     ncomp, label = connected_components(pattern, directed=False)
     blocks = []
-    for comp in range(ncomp):
-        cols = np.nonzero(label == comp)[0]
-        sub = HN[:, cols]
-        rows = np.unique(sub.indices)
+    # small problems: slice one dense array (sparse slicing per component cost more than
+    # the SVDs themselves)
+    whole = HN.toarray() if HN.shape[0] * k <= DENSE_UNDETERMINED else None
+    for cols in np.split(np.argsort(label, kind="stable"),
+                         np.cumsum(np.bincount(label, minlength=ncomp))[:-1]):
+        if whole is not None:
+            sub = whole[:, cols]
+            rows = np.nonzero(np.any(sub != 0.0, axis=1))[0]
+        else:
+            sub = HN[:, cols]
+            rows = np.unique(sub.indices)
         if len(rows) == 0:
             blocks.append((cols, np.eye(len(cols))))
             continue
-        dense = sub[rows].toarray()
+        dense = sub[rows] if whole is not None else sub[rows].toarray()
         if dense.shape[0] > dense.shape[1]:
             # only V is needed: reduce the (tall) block to its triangular factor first;
             # a full SVD of a 4,350 x 498 block spent 10 s forming U
@@ -233,10 +244,13 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
             raise InputError(f"penalty must be finite blocks of shape {Q.shape}, got "
                              f"{penalty.shape}")
     Qp = Q if penalty is None else Q + penalty
-    N, deficient = _null_directions(Q, ne.counts)
-    if penalty is not None:
-        N, _ = _null_directions(Qp, ne.counts)
-    Zu = _undetermined(N, system.H_full)
+    # many small dense problems: BLAS threads only cost here (on a loaded machine
+    # OpenBLAS's spinning threads made these 20x slower)
+    with kernels.one_blas_thread():
+        N, deficient = _null_directions(Q, ne.counts)
+        if penalty is not None:
+            N, _ = _null_directions(Qp, ne.counts)
+        Zu = _undetermined(N, system.H_full)
     under = np.unique(Zu.indices // dhat)
     if ridge is None and on_insufficient == "ridge":
         ridge = DEFAULT_RIDGE
@@ -344,6 +358,9 @@ KKT_DELTA = 1e-8
 REFINE_MAXITER = 40
 #: Accepted relative forward-error estimate of a constrained solve (without a ridge).
 REFINE_TOL = 1e-8
+#: Accepted normwise backward error of a constrained solve whose forward-error estimate
+#: exceeds REFINE_TOL because the data are ill-conditioned (see :func:`_refine`).
+BACKWARD_TOL = 1e-13
 
 
 def global_points(tri, degree: int, gather: np.ndarray, M: int) -> np.ndarray:
@@ -388,6 +405,9 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
         return np.concatenate([Qg @ z1 + At @ z2, A @ z1])
 
     K = spla.LinearOperator((M + m, M + m), matvec=kkt, dtype=float)
+    knorm = max(float(abs(Qg).sum(axis=1).max()) + (float(abs(At).sum(axis=1).max())
+                                                   if m else 0.0),
+                float(abs(A).sum(axis=1).max()) if m else 0.0)
     rhs = np.concatenate([qg, np.zeros(m)])
     delta = KKT_DELTA * scale
     for sigma in (KKT_SIGMA * scale, 0.0):
@@ -398,7 +418,7 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
             pre = _preconditioner(Qg, A, sigma, delta, coords, cache)
         if pre is None:
             continue
-        z = _refine(pre, K, rhs, M, tol)
+        z = _refine(pre, K, rhs, M, tol, knorm)
         if z is not None:
             return z[:M]
     raise singular
@@ -478,11 +498,21 @@ def _splu(K: sp.csc_matrix, thresh: float):
         return None
 
 
-def _refine(solve, K, rhs, M, tol: float = 1e-8):
+def _refine(solve, K, rhs, M, tol: float = 1e-8, knorm: float = 0.0):
     """Solve K z = rhs with an approximate inverse ``solve``: iterative refinement, then
     (if that converges slowly, e.g. with nearly dependent conditions) preconditioned GMRES.
-    Returns None when neither brings the relative size of the last correction (the
-    forward-error estimate) of the coefficient part to ``tol``."""
+
+    Accepts z when the relative size of the last correction of the coefficient part (the
+    forward-error estimate) is at most ``tol``, or when z solves the system to round-off
+    (normwise backward error ``|K z - rhs| / (knorm |z| + |rhs|)`` at most
+    :data:`BACKWARD_TOL`, ``knorm`` estimating ``|K|``): then the forward error is only
+    what the conditioning of the data allows (high degrees: Gram blocks with condition
+    numbers of 1e10 and more), and no method would do better. Returns z, or None when
+    neither holds."""
+    def backward(z):
+        r = np.abs(rhs - K @ z).max()
+        return r / max(knorm * np.abs(z).max() + np.abs(rhs).max(), 1e-300)
+
     with np.errstate(all="ignore"):
         z = solve(rhs)
         last = np.inf
@@ -494,7 +524,8 @@ def _refine(solve, K, rhs, M, tol: float = 1e-8):
             if step <= 1e-14 or step >= 0.8 * last or not np.isfinite(step):
                 break
             last = step
-        if np.isfinite(step) and step > 1e-12:
+        if np.isfinite(step) and step > 1e-12 and not (
+                step > tol and knorm > 0 and backward(z) <= BACKWARD_TOL):
             pre = spla.LinearOperator(K.shape, matvec=solve, dtype=float)
             z2, _ = spla.gmres(K, rhs, x0=z, M=pre, rtol=1e-14, atol=0.0, restart=60,
                                maxiter=20)
@@ -502,8 +533,10 @@ def _refine(solve, K, rhs, M, tol: float = 1e-8):
                 step = np.abs(solve(rhs - K @ z2)[:M]).max() / max(np.abs(z2[:M]).max(),
                                                                    1e-300)
                 z = z2
-    if not np.all(np.isfinite(z)) or step > tol:
-        return None
+        if not np.all(np.isfinite(z)):
+            return None
+        if step > tol and not (knorm > 0 and backward(z) <= BACKWARD_TOL):
+            return None
     return z
 
 
