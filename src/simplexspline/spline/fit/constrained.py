@@ -244,8 +244,9 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
             raise InputError(f"penalty must be finite blocks of shape {Q.shape}, got "
                              f"{penalty.shape}")
     Qp = Q if penalty is None else Q + penalty
-    # many small dense problems: BLAS threads only cost here (on a loaded machine
-    # OpenBLAS's spinning threads made these 20x slower)
+    # many small and medium dense problems (eigh, QR, SVD): BLAS threads only cost here;
+    # on a loaded machine OpenBLAS's spinning threads made them 8-20x slower (a 272-simplex
+    # Delaunay S^1_3 solve: 7.7 s threaded, 0.97 s on one thread)
     with kernels.one_blas_thread():
         N, deficient = _null_directions(Q, ne.counts)
         if penalty is not None:
