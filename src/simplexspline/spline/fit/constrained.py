@@ -141,10 +141,6 @@ def _null_directions(Q: np.ndarray, counts: np.ndarray):
     return N, np.unique(js)
 
 
-#: :func:`_undetermined` works on one dense copy of H N up to this many entries.
-DENSE_UNDETERMINED = 20_000_000
-
-
 def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
     """Basis (full coordinates, sparse) of null(Q) intersected with null(H).
 
@@ -160,21 +156,14 @@ def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
     pattern = (abs(HN).T @ abs(HN)).tocsr()
     ncomp, label = connected_components(pattern, directed=False)
     blocks = []
-    # small problems: slice one dense array (sparse slicing per component cost more than
-    # the SVDs themselves)
-    whole = HN.toarray() if HN.shape[0] * k <= DENSE_UNDETERMINED else None
-    for cols in np.split(np.argsort(label, kind="stable"),
-                         np.cumsum(np.bincount(label, minlength=ncomp))[:-1]):
-        if whole is not None:
-            sub = whole[:, cols]
-            rows = np.nonzero(np.any(sub != 0.0, axis=1))[0]
-        else:
-            sub = HN[:, cols]
-            rows = np.unique(sub.indices)
+    for comp in range(ncomp):
+        cols = np.nonzero(label == comp)[0]
+        sub = HN[:, cols]
+        rows = np.unique(sub.indices)
         if len(rows) == 0:
             blocks.append((cols, np.eye(len(cols))))
             continue
-        dense = sub[rows] if whole is not None else sub[rows].toarray()
+        dense = sub[rows].toarray()
         if dense.shape[0] > dense.shape[1]:
             # only V is needed: reduce the (tall) block to its triangular factor first;
             # a full SVD of a 4,350 x 498 block spent 10 s forming U
@@ -246,7 +235,7 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
     Qp = Q if penalty is None else Q + penalty
     # many small and medium dense problems (eigh, QR, SVD): BLAS threads only cost here;
     # on a loaded machine OpenBLAS's spinning threads made them 8-20x slower (a 272-simplex
-    # Delaunay S^1_3 solve: 7.7 s threaded, 0.97 s on one thread)
+    # Delaunay S^1_3 solve: 7.7 s threaded, 0.9 s on one thread)
     with kernels.one_blas_thread():
         N, deficient = _null_directions(Q, ne.counts)
         if penalty is not None:
@@ -360,7 +349,7 @@ REFINE_MAXITER = 40
 #: Accepted relative forward-error estimate of a constrained solve (without a ridge).
 REFINE_TOL = 1e-8
 #: Accepted normwise backward error of a constrained solve whose forward-error estimate
-#: exceeds REFINE_TOL because the data are ill-conditioned (see :func:`_refine`).
+#: stays above REFINE_TOL on every pass because the data are ill-conditioned.
 BACKWARD_TOL = 1e-13
 
 
@@ -406,11 +395,9 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
         return np.concatenate([Qg @ z1 + At @ z2, A @ z1])
 
     K = spla.LinearOperator((M + m, M + m), matvec=kkt, dtype=float)
-    knorm = max(float(abs(Qg).sum(axis=1).max()) + (float(abs(At).sum(axis=1).max())
-                                                   if m else 0.0),
-                float(abs(A).sum(axis=1).max()) if m else 0.0)
     rhs = np.concatenate([qg, np.zeros(m)])
     delta = KKT_DELTA * scale
+    stable = None
     for sigma in (KKT_SIGMA * scale, 0.0):
         pre = None
         if sigma > 0 and M <= DENSE_MAX:
@@ -419,10 +406,29 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
             pre = _preconditioner(Qg, A, sigma, delta, coords, cache)
         if pre is None:
             continue
-        z = _refine(pre, K, rhs, M, tol, knorm)
+        z = _refine(pre, K, rhs, M, tol)
         if z is not None:
             return z[:M]
+        if stable is None:
+            stable = _refine(pre, K, rhs, M, np.inf)  # any finite solution
+            if stable is not None and _backward_error(K, stable, rhs, Qg, A) > BACKWARD_TOL:
+                stable = None
+    if stable is not None:
+        # no pass met the forward-error tolerance, but one solved the system to round-off:
+        # the conditioning of the data (high degrees: Gram blocks with condition numbers
+        # of 1e10 and more) limits the coefficients, not the solver
+        return stable[:M]
     raise singular
+
+
+def _backward_error(K, z, rhs, Qg, A) -> float:
+    """Normwise backward error ``|K z - rhs| / (|K| |z| + |rhs|)`` (infinity norms, |K|
+    from the blocks Qg and A) of a KKT solution."""
+    knorm = float(abs(Qg).sum(axis=1).max())
+    if A.shape[0]:
+        knorm = max(knorm + float(abs(A).sum(axis=0).max()), float(abs(A).sum(axis=1).max()))
+    r = float(np.abs(rhs - K @ z).max())
+    return r / max(knorm * float(np.abs(z).max()) + float(np.abs(rhs).max()), 1e-300)
 
 
 #: Systems with at most this many C^0-reduced coefficients are factorised as one dense
@@ -499,21 +505,11 @@ def _splu(K: sp.csc_matrix, thresh: float):
         return None
 
 
-def _refine(solve, K, rhs, M, tol: float = 1e-8, knorm: float = 0.0):
+def _refine(solve, K, rhs, M, tol: float = 1e-8):
     """Solve K z = rhs with an approximate inverse ``solve``: iterative refinement, then
     (if that converges slowly, e.g. with nearly dependent conditions) preconditioned GMRES.
-
-    Accepts z when the relative size of the last correction of the coefficient part (the
-    forward-error estimate) is at most ``tol``, or when z solves the system to round-off
-    (normwise backward error ``|K z - rhs| / (knorm |z| + |rhs|)`` at most
-    :data:`BACKWARD_TOL`, ``knorm`` estimating ``|K|``): then the forward error is only
-    what the conditioning of the data allows (high degrees: Gram blocks with condition
-    numbers of 1e10 and more), and no method would do better. Returns z, or None when
-    neither holds."""
-    def backward(z):
-        r = np.abs(rhs - K @ z).max()
-        return r / max(knorm * np.abs(z).max() + np.abs(rhs).max(), 1e-300)
-
+    Returns None when neither brings the relative size of the last correction (the
+    forward-error estimate) of the coefficient part to ``tol``."""
     with np.errstate(all="ignore"):
         z = solve(rhs)
         last = np.inf
@@ -525,8 +521,7 @@ def _refine(solve, K, rhs, M, tol: float = 1e-8, knorm: float = 0.0):
             if step <= 1e-14 or step >= 0.8 * last or not np.isfinite(step):
                 break
             last = step
-        if np.isfinite(step) and step > 1e-12 and not (
-                step > tol and knorm > 0 and backward(z) <= BACKWARD_TOL):
+        if np.isfinite(step) and step > 1e-12:
             pre = spla.LinearOperator(K.shape, matvec=solve, dtype=float)
             z2, _ = spla.gmres(K, rhs, x0=z, M=pre, rtol=1e-14, atol=0.0, restart=60,
                                maxiter=20)
@@ -534,10 +529,8 @@ def _refine(solve, K, rhs, M, tol: float = 1e-8, knorm: float = 0.0):
                 step = np.abs(solve(rhs - K @ z2)[:M]).max() / max(np.abs(z2[:M]).max(),
                                                                    1e-300)
                 z = z2
-        if not np.all(np.isfinite(z)):
-            return None
-        if step > tol and not (knorm > 0 and backward(z) <= BACKWARD_TOL):
-            return None
+    if not np.all(np.isfinite(z)) or step > tol:
+        return None
     return z
 
 

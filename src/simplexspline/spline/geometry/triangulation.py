@@ -403,9 +403,12 @@ class Triangulation:
             return GridLocator(g["lower"], g["upper"], g["shape"], g["table"])
         if kernels.HAVE_NUMBA:
             return WalkLocator(np.asarray(self.corners), self._origin, self._tinv,
-                               self.neighbors, self._convex,
-                               lambda pts: self._buckets.locate(pts))
+                               self.neighbors, self._convex, self._bucket_locate)
         return self._buckets
+
+    def _bucket_locate(self, pts: np.ndarray) -> np.ndarray:
+        """The exact bucket search (the walk's fallback; a method, so it pickles)."""
+        return self._buckets.locate(pts)
 
     @cached_property
     def _buckets(self):
