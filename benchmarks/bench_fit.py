@@ -23,6 +23,14 @@ Benchmarks
    2-worker ``dask.distributed.LocalCluster`` (processes, one thread each), fitted by
    ``simplexspline.spline.distributed.fit_dask``: time (cluster start-up and data generation not
    counted) and the max coefficient difference from benchmark 2's in-memory fit.
+6. Off the grid (issue 17): benchmarks 1, 3 and 4 on Delaunay triangulations, located by
+   the compiled walk. 6a: ``Triangulation.delaunay`` of 11 random 5-D vertices (37
+   simplices), 200,000 points, S^1_3: fit time, the block-product floor, and point location
+   against scipy's ``Delaunay.find_simplex`` on the same points. 6b: predict throughput and
+   single-point latency of 6a's spline. 6c: the SimplexBSplines peer's task (Delaunay of a
+   3^3 grid with its centre vertex perturbed, S^1_3, 200,000 points).
+7. 3-D, d = 4, Delaunay of 850 random vertices (about 5,000 simplices), 2,000,000 points
+   (``on_insufficient='minnorm'``: slivers without data): normal equations and solve.
 """
 
 from __future__ import annotations
@@ -222,7 +230,8 @@ def bench_large_tri(rows: list, repeats: int, quick: bool) -> None:
                  f"{space.dim_coefficients:,} coefficients", "fit <= 20 s"))
 
 
-def bench_predict(rows: list, spline, x: np.ndarray, repeats: int, quick: bool) -> None:
+def bench_predict(rows: list, spline, x: np.ndarray, repeats: int, quick: bool,
+                  label: str = "4 predict: n=5 d=3") -> None:
     rng = np.random.default_rng(4)
     npts = 100_000 if quick else 1_000_000
     xe = x[rng.integers(0, len(x), npts)]
@@ -236,10 +245,71 @@ def bench_predict(rows: list, spline, x: np.ndarray, repeats: int, quick: bool) 
         lat.append(time.perf_counter() - t0)
     t_one = statistics.median(lat)
     t_grad, _ = median_time(lambda: spline.gradient(xe), repeats)
-    rows.append(("4 predict: n=5 d=3", f"J={spline.triangulation.nsimplex}, N={npts:,}",
+    rows.append((label, f"J={spline.triangulation.nsimplex}, N={npts:,}",
                  f"{npts / t_batch / 1e6:.2f} M points/s; gradient {npts / t_grad / 1e6:.2f} "
                  "M points/s",
                  f"single point {t_one * 1e6:.0f} us", ">= 5 M/s, <= 50 us"))
+
+
+def in_simplices(tri, npts: int, rng: np.random.Generator) -> np.ndarray:
+    """Points uniform in the union of the simplices (volume-weighted, Dirichlet inside)."""
+    vol = tri.volumes()
+    j = rng.choice(tri.nsimplex, npts, p=vol / vol.sum())
+    b = rng.dirichlet(np.ones(tri.ndim + 1), npts)
+    return np.einsum("ik,ikn->in", b, np.asarray(tri.corners)[j])
+
+
+def bench_delaunay(rows: list, repeats: int, quick: bool) -> None:
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(12)  # a seed whose Delaunay has the paper's 37 simplices
+    npts = 20_000 if quick else 200_000
+    verts = rng.random((11, 5))
+    tri = Triangulation.delaunay(verts)
+    x = in_simplices(tri, npts, rng)
+    y = target(x) + 0.01 * rng.standard_normal(npts)
+    space = _space_setup(tri, 3, 1)
+    t_fit, spline = median_time(lambda: space.fit(x, y), repeats)
+    floor = gram_floor(space, x, repeats)
+    tri.locate(x[:10])
+    t_loc, _ = median_time(lambda: tri.locate(x), repeats)
+    qhull = Delaunay(verts)
+    t_qh, _ = median_time(lambda: qhull.find_simplex(x), repeats)
+    rows.append(("6a paper on Delaunay: n=5 d=3 r=1", f"J={tri.nsimplex}, N={npts:,}",
+                 f"fit {t_fit:.3f} s; locate {t_loc * 1e3:.1f} ms (qhull find_simplex "
+                 f"{t_qh * 1e3:.1f} ms)",
+                 f"fit/floor = {t_fit / floor:.2f} (floor {floor * 1e3:.1f} ms); "
+                 f"locate/qhull = {t_loc / t_qh:.2f}",
+                 "fit <= 0.1 s, ratio <= 3; locate <= 1.5x qhull"))
+    bench_predict(rows, spline, x, repeats, quick, label="6b predict on Delaunay: n=5 d=3")
+    g = np.stack(np.meshgrid(*[np.linspace(0, 1, 3)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    g[13] += 0.1 * rng.uniform(-1, 1, 3)  # the centre vertex
+    peer = Triangulation.delaunay(g)
+    xp = in_simplices(peer, npts, rng)
+    yp = np.sin(3 * xp[:, 0]) * np.cos(2 * xp[:, 1]) + xp[:, 2] ** 2
+    pspace = _space_setup(peer, 3, 1)
+    t_peer, _ = median_time(lambda: pspace.fit(xp, yp), repeats)
+    pfloor = gram_floor(pspace, xp, repeats)
+    rows.append(("6c peer task (Delaunay of perturbed 3^3 grid) S^1_3",
+                 f"J={peer.nsimplex}, N={npts:,}", f"fit {t_peer:.3f} s",
+                 f"fit/floor = {t_peer / pfloor:.2f} (floor {pfloor * 1e3:.1f} ms)",
+                 "fit <= 0.064 s"))
+
+
+def bench_delaunay_large(rows: list, repeats: int, quick: bool) -> None:
+    rng = np.random.default_rng(7)
+    nverts, npts = (200, 200_000) if quick else (850, 2_000_000)
+    tri = Triangulation.delaunay(rng.random((nverts, 3)))
+    x = in_simplices(tri, npts, rng)
+    y = np.sin(3 * x[:, 0]) * np.cos(2 * x[:, 1]) + x[:, 2] ** 3
+    t_setup, space = median_time(lambda: _space_setup(tri, 4, 1), 1)
+    ne = space.normal_equations(x, y)
+    t_ne, _ = median_time(lambda: space.normal_equations(x, y), 1)
+    t_solve, _ = median_time(lambda: space.solve(ne, on_insufficient="minnorm"), 1)
+    rows.append(("7 large Delaunay: n=3 d=4 r=1", f"J={tri.nsimplex:,}, N={npts:,}",
+                 f"fit {t_ne + t_solve:.2f} s (normal eq. {t_ne:.2f} s, solve {t_solve:.2f} s); "
+                 f"space set-up {t_setup:.2f} s",
+                 f"{space.dim_coefficients:,} coefficients", "fit <= 20 s"))
 
 
 def main(argv=None) -> int:
@@ -257,7 +327,7 @@ def main(argv=None) -> int:
     if args.child_dask is not None:
         _child_dask(int(args.child_dask[0]), args.child_dask[1], int(args.child_dask[2]))
         return 0
-    only = set(args.only or [1, 2, 3, 4, 5])
+    only = set(args.only or [1, 2, 3, 4, 5, 6, 7])
     tmp = tempfile.TemporaryDirectory()
     coef_file = os.path.join(tmp.name, "large_coef.npy")
     rows: list = []
@@ -272,6 +342,10 @@ def main(argv=None) -> int:
         bench_predict(rows, spline, x, args.repeats, args.quick)
     if 5 in only:
         bench_dask(rows, args.quick, coef_file, max(1, args.repeats // 2))
+    if 6 in only:
+        bench_delaunay(rows, args.repeats, args.quick)
+    if 7 in only:
+        bench_delaunay_large(rows, args.repeats, args.quick)
     tmp.cleanup()
     if 1 not in only:
         rows = [r for r in rows if not r[0].startswith("1 ")]

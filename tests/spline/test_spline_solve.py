@@ -380,3 +380,18 @@ def test_insufficient_error_always_names_simplices():
             assert len(err.counts) == len(err.simplices)
             for j in err.simplices[:5]:
                 assert str(j) in str(err)
+
+
+def test_high_degree_fit_limited_by_conditioning_not_refused():
+    """Issue 18, item 7: n = 2, d = 16 on a 2 x 2 grid with 5,000 points. The Gram blocks
+    have condition numbers near 1e11, so coefficients are only known to about 1e-5
+    relative; the solve must still return the (backward-stable) constrained least-squares
+    fit instead of calling the determined system singular."""
+    tri = Triangulation.grid([0, 0], [1, 1], (2, 2))
+    rng = seeded("high-degree")
+    x = rng.random((5000, 2))
+    y = np.sin(3 * x[:, 0]) + x[:, 1] ** 2
+    s = SplineSpace(tri, 16, 1).fit(x, y, on_insufficient="minnorm")
+    assert np.sqrt(np.mean((s.predict(x) - y) ** 2)) < 1e-9  # smooth: fitted to round-off
+    c = s.coefficients.ravel()
+    assert np.abs(SplineSpace(tri, 16, 1).H_full @ c).max() <= 1e-12 * np.abs(c).max()

@@ -9,6 +9,8 @@ Kernels
 -------
 * :func:`grid_locate`: Kuhn-grid point location (cell by floor, simplex by sorting the local
   coordinates), one pass per point.
+* :func:`walk_locate`: point location in any triangulation, a visibility walk from a seed
+  simplex per cell of a uniform grid, with the lowest-index rule for points on shared faces.
 * :func:`basis_cols`: B-form basis values (d_hat, N), level by level over blocks of points.
 * :func:`evaluate`: barycentric coordinates, basis and the dot product with the simplex's
   coefficients fused, without materialising the basis matrix.
@@ -27,7 +29,7 @@ import numpy as np
 from simplexspline.spline.bform import monomial_plan, scale_factors
 from simplexspline.errors import InputError
 
-__all__ = ["HAVE_NUMBA", "one_blas_thread", "thread_count", "in_parallel", "basis_plan", "grid_locate", "basis_cols", "sorted_design_t", "evaluate",
+__all__ = ["HAVE_NUMBA", "one_blas_thread", "thread_count", "in_parallel", "basis_plan", "grid_locate", "walk_locate", "basis_cols", "sorted_design_t", "evaluate",
            "extend_add", "gram_blocks", "fused_normal"]
 
 try:  # pragma: no cover - exercised where numba is installed
@@ -403,6 +405,106 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
                     g[q, k] = g[k, q]
         return gram
 
+    @numba.njit(cache=True, nogil=True, inline="always")
+    def _bary_min(x, i, j, origin, tinv, b):
+        """Barycentric coordinates of point x[i] in simplex j into b; returns the index of
+        the smallest."""
+        n = x.shape[1]
+        total = 0.0
+        for k in range(n):
+            acc = 0.0
+            for q in range(n):
+                acc += tinv[j, k, q] * (x[i, q] - origin[j, q])
+            b[k + 1] = acc
+            total += acc
+        b[0] = 1.0 - total
+        imin = 0
+        for k in range(1, n + 1):
+            if b[k] < b[imin]:
+                imin = k
+        return imin
+
+    @numba.njit(cache=True, nogil=True)
+    def _walk_locate(x, origin, tinv, neighbors, lower, inv_width, shape, seeds, convex,
+                     tol, box_tol, maxsteps, out):
+        """Visibility walk from a seed simplex (see :func:`walk_locate`); -2 marks points
+        the walk could not settle (the caller locates them otherwise)."""
+        npts, n = x.shape
+        b = np.empty(n + 1)
+        cap = 4096
+        stack = np.empty(cap, dtype=np.int64)
+        seen = np.empty(cap, dtype=np.int64)
+        for i in range(npts):
+            # seed: the simplex recorded for the point's cell of the seed grid
+            flat = 0
+            inbox = True
+            for k in range(n):
+                r = (x[i, k] - lower[k]) * inv_width[k]
+                if r < -box_tol[k] or r > shape[k] + box_tol[k]:
+                    inbox = False
+                c = min(max(int(np.floor(r)), 0), shape[k] - 1)
+                flat = flat * shape[k] + c
+            if not inbox:
+                out[i] = -1
+                continue
+            s = seeds[flat]
+            found = -2
+            for _ in range(maxsteps):
+                imin = _bary_min(x, i, s, origin, tinv, b)
+                if b[imin] >= -tol:
+                    found = s
+                    break
+                nb = neighbors[s, imin]
+                if nb < 0:
+                    found = -1 if convex else -2
+                    break
+                s = nb
+            if found < 0:
+                out[i] = found
+                continue
+            # Ties: a point within tol of a facet of s may lie in the simplices across it
+            # too; the answer is the lowest index among the containing simplices reached
+            # through such facets, whatever simplex the walk ended in.
+            near = False
+            for k in range(n + 1):
+                if b[k] <= tol:
+                    near = True
+            if near:
+                best = s
+                top = 1
+                nseen = 1
+                stack[0] = s
+                seen[0] = s
+                while top > 0 and nseen < cap:
+                    top -= 1
+                    t = stack[top]
+                    _bary_min(x, i, t, origin, tinv, b)
+                    for k in range(n + 1):
+                        if b[k] > tol:
+                            continue
+                        nb = neighbors[t, k]
+                        if nb < 0:
+                            continue
+                        dup = False
+                        for q in range(nseen):
+                            if seen[q] == nb:
+                                dup = True
+                                break
+                        if dup or nseen >= cap:
+                            continue
+                        seen[nseen] = nb
+                        nseen += 1
+                        bm = _bary_min(x, i, nb, origin, tinv, b)
+                        if b[bm] >= -tol:
+                            if nb < best:
+                                best = nb
+                            stack[top] = nb
+                            top += 1
+                        _bary_min(x, i, t, origin, tinv, b)
+                found = best
+            out[i] = found
+        return out
+
     @numba.njit(cache=True, nogil=True)
     def _extend_add(front, idx, upd):
         m = idx.shape[0]
@@ -477,6 +579,35 @@ def grid_locate(x, lower, step, shape, table, nfact, tol) -> np.ndarray:
     out = np.empty(len(x), dtype=np.int64)
     in_parallel(len(x), lambda s, e: _grid_locate(x[s:e], lower, step, shape, table, nfact,
                                                  tol, out[s:e]))
+    return out
+
+
+def walk_locate(x, origin, tinv, neighbors, lower, width, shape, seeds, convex: bool,
+                tol: float) -> np.ndarray:
+    """Compiled point location in any triangulation by a visibility walk.
+
+    Each point starts in the seed simplex of its cell of a uniform seed grid (``lower``,
+    cell ``width``, ``shape`` cells; ``seeds`` flat, C order) and steps across the facet
+    opposite its most negative barycentric coordinate until all are >= ``-tol``. Points on
+    (or within ``tol`` of) shared faces get the lowest-index simplex containing them.
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+        The simplex, -1 outside (beyond the seed grid's box, or, when ``convex``, beyond a
+        boundary facet), -2 where the walk stopped at a boundary facet of a non-convex
+        triangulation or took too many steps (to be located by other means).
+    """
+    out = np.empty(len(x), dtype=np.int64)
+    if len(x) == 0:
+        return out
+    x = np.ascontiguousarray(x, dtype=float)
+    inv = 1.0 / np.asarray(width, dtype=float)
+    box_tol = np.full(len(shape), 1e-9) * np.asarray(shape)
+    maxsteps = int(64 + 8 * np.asarray(shape).max())
+    in_parallel(len(x), lambda s, e: _walk_locate(
+        x[s:e], origin, tinv, neighbors, lower, inv, shape, seeds, bool(convex), tol,
+        box_tol, maxsteps, out[s:e]))
     return out
 
 

@@ -356,7 +356,8 @@ def c_core(spline, tag: str) -> str:
     tri = spline.triangulation
     n, d, nsimp = tri.ndim, spline.degree, tri.nsimplex
     dhat = spline.coefficients.shape[1]
-    loc = tri._locator
+    # the C code locates with the Kuhn grid or the bucket grid (not the compiled walk)
+    loc = tri._locator if isinstance(tri._locator, GridLocator) else tri._buckets
     box_lo, box_hi = domain_box(tri)
     parts = [
         f"/* ---- tables: {nsimp} simplices, degree {d}, {dhat} B-coefficients each */\n",

@@ -1,13 +1,21 @@
 """Vectorised point location in triangulations.
 
-Two strategies:
+Three strategies:
 
 * :class:`GridLocator` for Kuhn/Freudenthal grid triangulations: the cell follows from a
   floor, the simplex from the permutation that sorts the local coordinates: O(n log n)
   per point, no search.
+* :class:`WalkLocator` for any triangulation (compiled): a visibility walk through the
+  facet neighbours from a seed simplex near the point (one per cell of a uniform seed grid,
+  the simplex with the nearest barycentre); a few barycentric evaluations per point.
 * :class:`BucketLocator` for any triangulation: a uniform bucket grid over the bounding box
   lists the simplices whose bounding boxes meet each bucket; a point is tested against the
-  candidates of its bucket only.
+  candidates of its bucket only. The numpy path, and the exact fallback of the walk where
+  it stops at the boundary of a non-convex triangulation.
+
+Every strategy but the grid's gives a point on (or within :data:`INSIDE_TOL` of) a face
+shared by several simplices the lowest-index simplex containing it, so the answer does not
+depend on the strategy, the batch or the order of the points.
 """
 
 from __future__ import annotations
@@ -16,11 +24,12 @@ from itertools import permutations
 from math import factorial
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from simplexspline.spline.geometry.barycentric import barycentric
 from simplexspline.spline import kernels
 
-__all__ = ["GridLocator", "BucketLocator", "kuhn_permutations", "INSIDE_TOL"]
+__all__ = ["GridLocator", "WalkLocator", "BucketLocator", "kuhn_permutations", "INSIDE_TOL"]
 
 #: A point whose smallest barycentric coordinate is >= -INSIDE_TOL is inside a simplex.
 INSIDE_TOL = 1e-10
@@ -165,3 +174,74 @@ class BucketLocator:
         point, simplex, bmin = self._pairs(x)
         ok = bmin >= -tol
         return point[ok], simplex[ok]
+
+
+#: Seed cells per simplex of :class:`WalkLocator`'s seed grid (at most :data:`SEED_MAX`).
+SEED_PER_SIMPLEX = 4.0
+SEED_MAX = 1 << 22
+
+
+class WalkLocator:
+    """Point location in an arbitrary triangulation by a compiled visibility walk.
+
+    Parameters
+    ----------
+    corners : ndarray, shape (J, n + 1, n)
+        Vertex coordinates of every simplex.
+    origin, tinv : ndarray
+        The simplices' affine maps
+        (see :func:`~simplexspline.spline.geometry.barycentric.simplex_transforms`).
+    neighbors : ndarray of int, shape (J, n + 1)
+        Neighbour across the facet opposite each local vertex, -1 on the boundary.
+    convex : bool
+        The triangulation covers a convex set (a Delaunay triangulation with no simplex
+        dropped): a walk stopped by a boundary facet proves the point outside.
+    fallback : callable
+        ``fallback(points) -> simplices`` for the points a walk cannot settle (stopped at
+        the boundary of a non-convex triangulation, or cycling in a non-Delaunay one).
+
+    Notes
+    -----
+    The walk steps from the seed simplex of the point's cell across the facet opposite
+    the most negative barycentric coordinate until none is below ``-INSIDE_TOL``; on a
+    Delaunay triangulation it always ends (Edelsbrunner's acyclicity theorem), elsewhere a
+    step limit hands cycling points to the fallback.
+    """
+
+    def __init__(self, corners: np.ndarray, origin: np.ndarray, tinv: np.ndarray,
+                 neighbors: np.ndarray, convex: bool, fallback):
+        nsimp, _, n = corners.shape
+        self.origin = np.ascontiguousarray(origin)
+        self.tinv = np.ascontiguousarray(tinv)
+        self.neighbors = np.ascontiguousarray(neighbors, dtype=np.int64)
+        self.convex = bool(convex)
+        self.fallback = fallback
+        self.lower = corners.min(axis=(0, 1))
+        upper = corners.max(axis=(0, 1))
+        span = np.where(upper > self.lower, upper - self.lower, 1.0)
+        target = min(max(1.0, SEED_PER_SIMPLEX * nsimp), SEED_MAX)
+        per_axis = span / np.prod(span) ** (1.0 / n) * target ** (1.0 / n)
+        self.shape = np.clip(np.ceil(per_axis).astype(np.int64), 1, 1 << 16)
+        while np.prod(self.shape.astype(float)) > SEED_MAX:
+            self.shape = np.maximum(1, self.shape // 2)
+        self.width = span / self.shape
+        centres = self.lower + (np.indices(tuple(self.shape)).reshape(n, -1).T + 0.5
+                                ) * self.width
+        _, seeds = cKDTree(corners.mean(axis=1)).query(centres)
+        self.seeds = np.asarray(seeds, dtype=np.int64).reshape(-1)
+        # Better seeds: the simplex containing each cell's centre (found by walking from
+        # the nearest barycentre), so that most walks take no step at all.
+        found = kernels.walk_locate(centres, self.origin, self.tinv, self.neighbors,
+                                    self.lower, self.width, self.shape, self.seeds,
+                                    self.convex, INSIDE_TOL)
+        self.seeds = np.where(found >= 0, found, self.seeds)
+
+    def locate(self, x: np.ndarray) -> np.ndarray:
+        """Simplex index of each point (the lowest-index containing one), -1 outside."""
+        out = kernels.walk_locate(x, self.origin, self.tinv, self.neighbors, self.lower,
+                                  self.width, self.shape, self.seeds, self.convex,
+                                  INSIDE_TOL)
+        rest = np.nonzero(out == -2)[0]
+        if len(rest):
+            out[rest] = self.fallback(x[rest])
+        return out

@@ -13,6 +13,7 @@ from functools import cached_property
 from math import factorial
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from simplexspline.errors import DegenerateSimplexError, InputError, TriangulationError
 from simplexspline.spline.geometry.barycentric import (
@@ -26,8 +27,10 @@ from simplexspline.spline.geometry.location import (
     INSIDE_TOL,
     BucketLocator,
     GridLocator,
+    WalkLocator,
     kuhn_permutations,
 )
+from simplexspline.spline import kernels
 from simplexspline.spline.inputs import as_points
 
 __all__ = ["Triangulation", "Facets"]
@@ -174,8 +177,12 @@ class Triangulation:
             ) from None
         simp = dt.simplices.astype(np.int64)
         _, _, sine = simplex_transforms(pts[simp])
-        simp = simp[sine > DEGENERACY_TOL]
-        return cls(pts, simp, _kind="delaunay", _check=False)
+        keep = sine > DEGENERACY_TOL
+        tri = cls(pts, simp[keep], _kind="delaunay", _check=False)
+        # qhull's simplices tile the convex hull; with flat ones dropped, a walk stopped
+        # at a boundary facet no longer proves a point outside
+        tri.__dict__["_convex"] = bool(np.all(keep))
+        return tri
 
     @classmethod
     def grid(cls, lower, upper, shape) -> Triangulation:
@@ -367,7 +374,7 @@ class Triangulation:
             inner.append(np.einsum("i,jin->jn", w, corners))
         probe = np.concatenate(inner)
         owner = np.tile(np.arange(self.nsimplex), n + 2)
-        point, simplex = self._locator.containing(probe, tol=-1e-9)
+        point, simplex = self._buckets.containing(probe, tol=-1e-9)
         clash = simplex != owner[point]
         if np.any(clash):
             k = int(np.nonzero(clash)[0][0])
@@ -380,7 +387,7 @@ class Triangulation:
             # a step of 1e-7 of the distance from the opposite vertex, away from it (no
             # norm: it underflows at coordinates like 1e-300)
             outside = fc + 1e-7 * (fc - corners[bj, bi])
-            point, simplex = self._locator.containing(outside, tol=-1e-12)
+            point, simplex = self._buckets.containing(outside, tol=-1e-12)
             if len(point):
                 k = int(point[0])
                 raise TriangulationError(
@@ -394,7 +401,35 @@ class Triangulation:
         if self._grid is not None:
             g = self._grid
             return GridLocator(g["lower"], g["upper"], g["shape"], g["table"])
+        if kernels.HAVE_NUMBA:
+            return WalkLocator(np.asarray(self.corners), self._origin, self._tinv,
+                               self.neighbors, self._convex, self._bucket_locate)
+        return self._buckets
+
+    def _bucket_locate(self, pts: np.ndarray) -> np.ndarray:
+        """The exact bucket search (the walk's fallback; a method, so it pickles)."""
+        return self._buckets.locate(pts)
+
+    @cached_property
+    def _buckets(self):
         return BucketLocator(np.asarray(self.corners), self._origin, self._tinv)
+
+    @cached_property
+    def _convex(self) -> bool:
+        """Whether the simplices cover their vertices' convex hull (then a point beyond a
+        boundary facet is outside): checked for Delaunay triangulations by comparing the
+        volumes; False for others (their locators never rely on it)."""
+        if self.kind != "delaunay":
+            return False
+        if self.ndim == 1:
+            return True
+        from scipy.spatial import ConvexHull, QhullError
+
+        try:
+            hull = ConvexHull(self.vertices).volume
+        except QhullError:
+            return False
+        return bool(abs(self.volumes().sum() - hull) <= 1e-9 * hull)
 
     def locate(self, x) -> np.ndarray:
         """Index of the simplex containing each point.
@@ -443,21 +478,27 @@ class Triangulation:
         -------
         ndarray of int, shape (N,)
         """
-        from scipy.spatial import cKDTree
-
         pts = as_points(x, name="x", ndim=self.ndim)
         k = int(min(k, self.nsimplex))
-        _, cand = cKDTree(self.centroids()).query(pts, k=k)
+        _, cand = self._centroid_tree.query(pts, k=k)
+        # at coordinates near the float limit the distances overflow and the tree reports
+        # no neighbour (index J): any simplex will do there
         cand = np.asarray(cand).reshape(len(pts), k)
+        cand = np.where(cand < self.nsimplex, cand, 0)
         best = np.full(len(pts), -np.inf)
         out = cand[:, 0].copy()
         for i in range(k):
             s = cand[:, i]
-            bmin = barycentric(pts, self._origin[s], self._tinv[s]).min(axis=1)
+            with np.errstate(all="ignore"):
+                bmin = barycentric(pts, self._origin[s], self._tinv[s]).min(axis=1)
             better = bmin > best
             best[better] = bmin[better]
             out[better] = s[better]
         return out
+
+    @cached_property
+    def _centroid_tree(self):
+        return cKDTree(self.centroids())
 
     def _check_ids(self, simplices, npts: int) -> np.ndarray:
         sid = np.asarray(simplices)
