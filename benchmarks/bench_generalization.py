@@ -92,6 +92,15 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _write(out: Path, settings: dict, runs: list, rows: list) -> None:
+    """The tables so far as JSON and Markdown (rewritten after every identification)."""
+    write_text(out / "generalization.json",
+               json.dumps(jsonable({"settings": settings, "runs": runs, "rows": rows}),
+                          indent=1) + "\n")
+    write_text(out / "generalization.md",
+               f"Command: `{settings['command']}`\n\n{markdown(rows)}\n")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true",
@@ -122,6 +131,11 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("seed 0 is the development seed: choose another")
 
     rows, runs = [], []
+    args.out.mkdir(parents=True, exist_ok=True)
+    settings = {"aircraft": aircraft, "variants": variants, "maneuvers": maneuvers,
+                "seed": args.seed, "conditions": "ConditionGrid.between (grid midpoints)",
+                "command": "python benchmarks/bench_generalization.py "
+                           + " ".join(sys.argv[1:] if argv is None else argv)}
     print(f"{'aircraft':<11} {'variant':<18} {'C':<3} {'rms_true':>9} {'noise':>9} "
           f"{'true/noise':>10} {'target':>6} {'rel.RMS':>8} {'Table2':>7} {'R2':>6} "
           f"{'sim s':>6} {'id s':>6}", flush=True)
@@ -149,20 +163,11 @@ def main(argv: list[str] | None = None) -> int:
                           f"{100 * r['rrms']:>7.2f}% "
                           f"{'-' if paper is None else f'{100 * paper:.2f}%':>7} "
                           f"{r['r2']:>6.3f} {sim_s:>6.0f} {id_s:>6.0f}", flush=True)
+                _write(args.out, settings, runs, rows)  # a long run keeps what it measured
     meets = [r for r in rows if r["true_over_noise"] is not None
              and r["true_over_noise"] <= r["target"]]
     print(f"\n{len(meets)} of {len(rows)} coefficient models at or below their rms_true/noise "
           "target", flush=True)
-    args.out.mkdir(parents=True, exist_ok=True)
-    settings = {"aircraft": aircraft, "variants": variants, "maneuvers": maneuvers,
-                "seed": args.seed, "conditions": "ConditionGrid.between (grid midpoints)",
-                "command": "python benchmarks/bench_generalization.py "
-                           + " ".join(sys.argv[1:] if argv is None else argv)}
-    write_text(args.out / "generalization.json",
-               json.dumps(jsonable({"settings": settings, "runs": runs, "rows": rows}),
-                          indent=1) + "\n")
-    write_text(args.out / "generalization.md",
-               f"Command: `{settings['command']}`\n\n{markdown(rows)}\n")
     print(f"written {args.out / 'generalization.json'} and generalization.md")
     return 0
 
