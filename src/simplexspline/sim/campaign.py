@@ -27,6 +27,7 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 
 from simplexspline._workers import ignore_interrupts
+from simplexspline.aero.data.atmosphere import isa_temperature, speed_of_sound
 from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile, Envelope, get_aircraft
@@ -47,8 +48,7 @@ DEFAULT_MIX: dict[str, float] = {"3211": 0.45, "doublet": 0.2, "sum-of-sines": 0
 
 def isa_speed_of_sound(h_m: float) -> float:
     """Speed of sound [m/s] in the ISA troposphere/lower stratosphere at altitude ``h_m``."""
-    temp = 288.15 - 0.0065 * min(h_m, 11000.0)
-    return math.sqrt(1.4 * 287.05287 * temp)
+    return float(speed_of_sound(isa_temperature(h_m)))
 
 
 def _grid(values, name: str) -> np.ndarray:

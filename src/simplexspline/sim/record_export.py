@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline._files import write_together
+from simplexspline.aero.data.atmosphere import GAMMA, R_AIR, cas_from_mach
 from simplexspline.errors import InputError
 from simplexspline.sim import units as u
 
@@ -51,8 +52,6 @@ RECORD_CHANNELS: dict[str, tuple[str, str, str]] = {
 _BLENDED = ("alpha", "tas", "mach", "h", "rho", "p", "q", "r", "phi", "theta", "ax", "ay",
             "az", "de", "da", "dr", "vn_gps", "ve_gps", "mass")
 _LB = 0.45359237  # kg per pound (exact)
-_P0, _A0 = 101325.0, 340.294  # sea-level standard pressure [Pa] and speed of sound [m/s]
-_R_AIR, _GAMMA = 287.05287, 1.4
 _LAT0, _LON0 = math.radians(52.0), math.radians(4.4)
 _T0_RECORD = 1000.0  # the recorder's clock does not start at zero
 
@@ -60,10 +59,9 @@ _T0_RECORD = 1000.0  # the recorder's clock does not start at zero
 def _air_data(mach, true_tas, true_mach, true_rho):
     """CAS [m/s] of the measured Mach at the true static pressure, and the true static
     temperature [K] (from the true speed of sound; pressure from the gas law)."""
-    temp = (true_tas / true_mach) ** 2 / (_GAMMA * _R_AIR)
-    pressure = true_rho * _R_AIR * temp
-    qc = pressure * ((1 + 0.2 * mach**2) ** 3.5 - 1)
-    return _A0 * np.sqrt(5 * ((qc / _P0 + 1) ** (2 / 7) - 1)), temp
+    temp = (true_tas / true_mach) ** 2 / (GAMMA * R_AIR)
+    pressure = true_rho * R_AIR * temp
+    return cas_from_mach(mach, pressure), temp
 
 
 def _ground(first: dict, n: int) -> dict:

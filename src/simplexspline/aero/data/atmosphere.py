@@ -18,7 +18,7 @@ import numpy as np
 
 from simplexspline.errors import InputError
 
-__all__ = ["GAMMA", "LAPSE_RATE", "P0", "R_AIR", "T0", "TROPOPAUSE_M", "CEILING_M",
+__all__ = ["cas_from_mach", "GAMMA", "LAPSE_RATE", "P0", "R_AIR", "T0", "TROPOPAUSE_M", "CEILING_M",
            "isa_temperature", "isa_pressure", "isa_density", "density", "speed_of_sound",
            "mach_from_cas", "static_temperature_from_total"]
 
@@ -92,6 +92,15 @@ def mach_from_cas(cas, pressure) -> np.ndarray:
     cas = np.asarray(cas, dtype=float)
     qc = P0 * ((1.0 + 0.2 * (cas / a0) ** 2) ** 3.5 - 1.0)
     return np.sqrt(5.0 * ((qc / np.asarray(pressure, dtype=float) + 1.0) ** (2.0 / 7.0) - 1.0))
+
+
+def cas_from_mach(mach, pressure) -> np.ndarray:
+    """Calibrated airspeed [m/s] from Mach number and static pressure [Pa] (subsonic): the
+    inverse of :func:`mach_from_cas`."""
+    a0 = float(speed_of_sound(T0))
+    mach = np.asarray(mach, dtype=float)
+    qc = np.asarray(pressure, dtype=float) * ((1.0 + 0.2 * mach**2) ** 3.5 - 1.0)
+    return a0 * np.sqrt(5.0 * ((qc / P0 + 1.0) ** (2.0 / 7.0) - 1.0))
 
 
 def static_temperature_from_total(total_temperature, mach, recovery: float = 1.0) -> np.ndarray:
