@@ -688,8 +688,10 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     mans = ident["maneuver"].to_numpy()
     start, dropped = restrict_to_data(start, columns)
     if dropped:
-        notes.append(f"{c}: left out of the starting structure (the data cannot support "
-                     f"it): {', '.join(dropped)}")
+        msg = (f"{c}: {sorted(dropped)} left out of the starting structure, the data cannot "
+               "support them (" + "; ".join(f"{k}: {v}" for k, v in dropped.items()) + ")")
+        notes.append(msg)
+        warn.append(msg)
     start = _drop_zero_multipliers(start, columns, notes, warn)
     cells = coverage.ident_cells
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,

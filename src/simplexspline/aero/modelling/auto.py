@@ -110,8 +110,8 @@ def restrict_to_data(structure: Structure, columns: Mapping) -> tuple[Structure,
     -------
     structure : Structure
         The restricted structure (unchanged when nothing is missing).
-    dropped : list of str
-        What was left out and why, one text per item.
+    dropped : dict of str to str
+        What was left out (a variable or a multiplier) and why.
 
     Raises
     ------
@@ -124,11 +124,14 @@ def restrict_to_data(structure: Structure, columns: Mapping) -> tuple[Structure,
         x = np.asarray(columns[v], dtype=float)
         return bool(np.all(np.isfinite(x)) and np.ptp(x) > 0)
 
-    dropped = []
+    def why(v):
+        return "constant in the data" if v in columns else "not in the data"
+
+    dropped = {}
     keep = [i for i, v in enumerate(structure.variables) if varies(v)]
     for i, v in enumerate(structure.variables):
         if i not in keep:
-            dropped.append(f"variable {v} ({'constant' if v in columns else 'not in the data'})")
+            dropped[v] = why(v)
     if not keep:
         raise InputError(f"none of the variables {list(structure.variables)} of "
                          f"{structure.coefficient} varies in the identification data")
@@ -137,13 +140,13 @@ def restrict_to_data(structure: Structure, columns: Mapping) -> tuple[Structure,
     for m in structure.multipliers:
         dims = split_multiplier(m)[1]
         factors = [f for f in multiplier_factors(m) if f not in variables]
-        if any(not varies(f) for f in factors) or (dims is not None and
-                                                   any(d not in variables for d in dims)):
-            dropped.append(f"multiplier {m}")
+        bad = [f for f in factors if not varies(f)]
+        if bad or (dims is not None and any(d not in variables for d in dims)):
+            dropped[m] = why(bad[0]) if bad else "its variables were left out"
             continue
         mult.append(m)
     if not dropped:
-        return structure, []
+        return structure, {}
     if structure.multipliers and not mult:
         mult = ["1"]
     knots = tuple((v, k) for v, k in structure.knots if v in variables)
