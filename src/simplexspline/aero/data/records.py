@@ -148,9 +148,7 @@ def _mat_getter(path: Path):
         return _h5_getter(path)
     try:
         data = scipy.io.loadmat(path, simplify_cells=True)
-    except NotImplementedError:  # MATLAB v7.3 files are HDF5
-        return _h5_getter(path)
-    except (ValueError, TypeError, OSError) as exc:
+    except (RuntimeError, ValueError, TypeError, OSError) as exc:   # v7.3 is caught above
         raise FlightDataError(f"cannot read MATLAB file {str(path)!r}: {exc}") from None
     names = set()
 
