@@ -152,6 +152,15 @@ def _low_peak_phases(rng: np.random.Generator, freqs: list, duration: float) -> 
     return trials[best].tolist()
 
 
+def _sum_of_sines(kind: str, profile: AircraftProfile, length: float, freqs: list,
+                  phases: list, scale: float, bank: float) -> dict:
+    """The record of a sum-of-sines maneuver (either design) from its drawn parameters."""
+    return {"type": kind, "family": "sum-of-sines", "axis": None,
+            "duration_s": LEAD_S + length + 1.0, "signal_s": length,
+            "freqs_hz": freqs, "phases": phases,
+            "accel_rms": [scale * a for a in profile.sos_accel_rms], "bank": bank}
+
+
 def _alternative_design(kind: str, profile: AircraftProfile, rng: np.random.Generator,
                         sos_duration_s: tuple, turn_fraction: float) -> dict:
     if kind == "sum-of-sines":
@@ -160,13 +169,10 @@ def _alternative_design(kind: str, profile: AircraftProfile, rng: np.random.Gene
         freqs = _even_frequencies((1.5 * lo, max(0.7 * hi, 3.0 * lo)), length)
         phases = [_low_peak_phases(rng, f, length) for f in freqs]
         scale = float(rng.uniform(0.7, 1.1))
-        rms = [scale * a for a in profile.sos_accel_rms]
         turning = rng.random() < turn_fraction
         bank = float(rng.uniform(0.2, 0.8) * profile.sos_bank * (1 if rng.random() < 0.5 else -1))
-        return {"type": kind, "family": "sum-of-sines", "axis": None,
-                "duration_s": LEAD_S + length + 1.0, "signal_s": length,
-                "freqs_hz": freqs, "phases": phases, "accel_rms": rms,
-                "bank": bank if turning else 0.0}
+        return _sum_of_sines(kind, profile, length, freqs, phases, scale,
+                             bank if turning else 0.0)
     family, axis = kind.split("-", 1)
     iaxis = AXES.index(axis)
     lo, hi = profile.pulse_unit_s
@@ -221,13 +227,10 @@ def design_maneuver(kind: str, profile: AircraftProfile, rng: np.random.Generato
         freqs = _sos_frequencies(rng, profile.sos_band_hz, length)
         phases = [rng.uniform(0, 2 * math.pi, len(f)).tolist() for f in freqs]
         scale = float(rng.uniform(0.6, 1.0))
-        rms = [scale * a for a in profile.sos_accel_rms]
         turning = rng.random() < turn_fraction
         bank = float(rng.uniform(0.3, 1.0) * profile.sos_bank * (1 if rng.random() < 0.5 else -1))
-        return {"type": kind, "family": "sum-of-sines", "axis": None,
-                "duration_s": LEAD_S + length + 1.0, "signal_s": length,
-                "freqs_hz": freqs, "phases": phases, "accel_rms": rms,
-                "bank": bank if turning else 0.0}
+        return _sum_of_sines(kind, profile, length, freqs, phases, scale,
+                             bank if turning else 0.0)
     family, axis = kind.split("-", 1)
     iaxis = AXES.index(axis)
     lo, hi = profile.pulse_unit_s
