@@ -176,3 +176,77 @@ def test_writes_without_locks(tmp_path, monkeypatch):
     with _files.temp_dir(tmp_path, ".identify.", ".tmp") as d:
         assert d.is_dir()
     assert _listing(tmp_path) == ["a.txt", "t.csv", "t.csv.json"]
+
+
+def _killed_between_renames(a, b):
+    """Run write_together({a: new, b: new}) in a child that SIGKILLs itself between its
+    two renames (the first file new, the second old, both backups left behind)."""
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent(f"""
+        import os, signal
+        from simplexspline._files import write_together
+        real = os.replace
+        def replace(src, dst):
+            if str(dst) == {str(b)!r} and str(src).endswith(".tmp"):
+                os.kill(os.getpid(), signal.SIGKILL)
+            return real(src, dst)
+        os.replace = replace
+        write_together({{{str(a)!r}: b"new table", {str(b)!r}: b"new sidecar"}})
+    """)
+    res = subprocess.run([sys.executable, "-c", code], timeout=120)
+    assert res.returncode == -9
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGKILL")
+def test_a_run_killed_between_renames_is_rolled_back_by_the_next(tmp_path, monkeypatch):
+    """The killed run leaves a new table beside the old sidecar, and its backups. The next
+    write puts the old pair back first: if that write fails too, the pair is old and
+    consistent; when it succeeds, new and consistent, with no backup left behind."""
+    a, b = tmp_path / "t.csv", tmp_path / "t.csv.json"
+    write_together({a: b"old table", b: b"old sidecar"})
+    _killed_between_renames(a, b)
+    assert (a.read_bytes(), b.read_bytes()) == (b"new table", b"old sidecar")
+    assert sum(p.name.endswith(".old") for p in tmp_path.iterdir()) == 2
+
+    real = os.replace
+
+    def second_rename_fails(src, dst):
+        if str(dst) == str(b) and str(src).endswith(".tmp"):
+            raise OSError(5, "Input/output error")
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", second_rename_fails)
+    with pytest.raises(OSError, match="Input/output"):
+        write_together({a: b"third table", b: b"third sidecar"})
+    assert (a.read_bytes(), b.read_bytes()) == (b"old table", b"old sidecar")
+    assert _listing(tmp_path) == ["t.csv", "t.csv.json"]
+
+    monkeypatch.setattr(os, "replace", real)
+    _killed_between_renames(a, b)
+    write_together({a: b"fourth table", b: b"fourth sidecar"})
+    assert (a.read_bytes(), b.read_bytes()) == (b"fourth table", b"fourth sidecar")
+    assert _listing(tmp_path) == ["t.csv", "t.csv.json"]
+
+
+@pytest.mark.skipif(os.name != "posix", reason="flock")
+def test_a_live_writers_backups_are_not_taken(tmp_path):
+    """While a write holds its backups (locked), another write of the same files must not
+    take them for a killed run's."""
+    import fcntl
+
+    a = tmp_path / "t.csv"
+    write_together({a: b"current"})
+    backup = tmp_path / ".t.csv.0123456789abcdef.old"
+    os.link(a, backup)
+    fd = os.open(backup, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        assert _files._restore_stale_backups(a) == []
+        assert backup.exists()
+    finally:
+        os.close(fd)
+    assert _files._restore_stale_backups(a) == [backup]      # its writer is gone
+    assert not backup.exists() and a.read_bytes() == b"current"

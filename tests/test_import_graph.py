@@ -3,7 +3,7 @@ functions and under ``TYPE_CHECKING`` included.
 
 - no import cycles;
 - no upward imports: layers run base (errors, version, files) -> spline -> estimator / aero
-  -> sim -> cli, and only the CLI may import the package face ``simplexspline``;
+  -> sim -> cli -> launcher, and only the CLI may import the package face ``simplexspline``;
 - no private name (leading underscore) taken from another sub-package (a sub-package is the
   unit of privacy: its modules may share private helpers);
 - an import of a project module inside a function says why, in a comment on its line or the
@@ -32,6 +32,7 @@ LAYERS = {
     "sim": 3,
     "": 4,          # the package face simplexspline/__init__.py
     "cli": 5,
+    "launcher": 6, "__main__": 6,   # the command's entry point, over the CLI
 }
 #: Deprecation modules at old import paths: they forward names, they hold no code.
 SHIMS = {

@@ -10,30 +10,22 @@ from __future__ import annotations
 
 from simplexspline._version import __version__
 
-from simplexspline.errors import (
-    DegenerateSimplexError,
-    FlightDataError,
-    InputError,
-    InsufficientDataError,
-    ModelFileError,
-    OutsideDomainError,
-    SimplexSplineError,
-    SimulationError,
-    TriangulationError,
-)
-from simplexspline.spline import (
-    Facets,
-    NormalEquations,
-    SimplexSpline,
-    SplineSpace,
-    Triangulation,
-    basis_values,
-    bnet_points,
-    de_casteljau,
-    multi_indices,
-    num_basis,
-    smoothness_matrix,
-)
+#: Where each public name lives. The package imports them on first use (PEP 562), so that
+#: ``import simplexspline`` (and the ``simplexspline`` command's launcher) costs
+#: milliseconds, not the two seconds of numpy, scipy and the spline kernels: a Ctrl-C in
+#: that time is then caught by the launcher, never a traceback.
+_HOMES = {
+    **dict.fromkeys(("DegenerateSimplexError", "FlightDataError", "InputError",
+                     "InsufficientDataError", "ModelFileError", "OutsideDomainError",
+                     "SimplexSplineError", "SimulationError", "TriangulationError"),
+                    "simplexspline.errors"),
+    **dict.fromkeys(("Facets", "NormalEquations", "SimplexSpline", "SplineSpace",
+                     "Triangulation", "basis_values", "bnet_points", "de_casteljau",
+                     "multi_indices", "num_basis", "smoothness_matrix"),
+                    "simplexspline.spline"),
+    # scikit-learn (optional) costs about a second more
+    "SimplexSplineRegressor": "simplexspline.estimator",
+}
 
 __all__ = [
     "__version__",
@@ -62,10 +54,13 @@ __all__ = [
 
 
 def __getattr__(name: str):
-    # The scikit-learn estimator is imported on first use: importing scikit-learn (an
-    # optional dependency) costs about a second.
-    if name == "SimplexSplineRegressor":
-        from simplexspline.estimator import SimplexSplineRegressor  # lazy: scikit-learn
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'simplexspline' has no attribute {name!r}")
+    value = getattr(__import__(home, fromlist=[name]), name)
+    globals()[name] = value
+    return value
 
-        return SimplexSplineRegressor
-    raise AttributeError(f"module 'simplexspline' has no attribute {name!r}")
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -105,6 +105,25 @@ def _owner_gone(entry: Path) -> bool:
         os.close(fd)              # the lock goes with it; the entry is removed right after
 
 
+def _stale(directory: str | os.PathLike, pattern: str, older_than_s: float) -> list[Path]:
+    """The entries matching ``pattern`` in ``directory`` whose writer is gone: no process
+    holds their lock (every writer here locks its temporaries) or, where locks are not
+    available, older than ``older_than_s``. Symbolic links are never taken."""
+    found = []
+    now = time.time()
+    for entry in Path(directory).glob(pattern):
+        try:
+            if entry.is_symlink():
+                continue
+            if not _owner_gone(entry) and (fcntl is not None
+                                           or now - entry.lstat().st_mtime < older_than_s):
+                continue
+            found.append(entry)
+        except OSError:
+            continue
+    return found
+
+
 def remove_stale(directory: str | os.PathLike, pattern: str,
                  older_than_s: float = STALE_AFTER_S) -> list[Path]:
     """Remove the temporaries matching ``pattern`` in ``directory`` that a killed run left.
@@ -120,14 +139,8 @@ def remove_stale(directory: str | os.PathLike, pattern: str,
         The entries removed.
     """
     removed = []
-    now = time.time()
-    for entry in Path(directory).glob(pattern):
+    for entry in _stale(directory, pattern, older_than_s):
         try:
-            if entry.is_symlink():
-                continue
-            if not _owner_gone(entry) and (fcntl is not None
-                                           or now - entry.lstat().st_mtime < older_than_s):
-                continue
             if entry.is_dir():
                 shutil.rmtree(entry)
             else:
@@ -136,6 +149,28 @@ def remove_stale(directory: str | os.PathLike, pattern: str,
         except OSError:
             continue
     return removed
+
+
+def _restore_stale_backups(path: Path) -> list[Path]:
+    """Put back the old version of ``path`` that a killed :func:`write_together` kept.
+
+    A run killed between its renames leaves some targets new and some old, with the old
+    versions as hard links ``.NAME.<token>.old``: putting every such backup back returns
+    the whole set to its old, consistent state (a run killed after its last rename but
+    before removing its backups is rolled back the same way: old and consistent).
+    Returns the backups put back (the newest first, so the oldest version stays)."""
+    stale = _stale(path.parent, f".{glob_escape(path.name)}.*.old", STALE_AFTER_S)
+    restored = []
+    for backup in sorted(stale, key=lambda p: p.lstat().st_mtime, reverse=True):
+        try:
+            if path.exists() and os.path.samefile(backup, path):
+                backup.unlink()           # not renamed yet (rename() of a link to itself
+            else:                         # would leave both names)
+                os.replace(backup, path)
+            restored.append(backup)
+        except OSError:
+            continue
+    return restored
 
 
 @contextlib.contextmanager
@@ -249,6 +284,8 @@ def write_together(contents: Mapping[str | os.PathLike, bytes]) -> list[Path]:
     that fails on a full disk or an unwritable directory); only then are the targets
     replaced, one rename each. The old versions are kept as hard links until every rename
     has succeeded, and put back if one fails, so a table never sits beside its old sidecar.
+A run killed between its renames leaves its backups behind, locked by no one; the next
+write of the same files puts them back first (every file old again), then writes.
 
     Parameters
     ----------
@@ -266,6 +303,8 @@ def write_together(contents: Mapping[str | os.PathLike, bytes]) -> list[Path]:
     done: list[Path] = []
     locks: list[int] = []
     try:
+        for path in targets:                  # a killed run's half-renamed set: old again
+            _restore_stale_backups(path)
         for path, data in zip(targets, contents.values()):
             remove_stale(path.parent, f".{glob_escape(path.name)}.*.tmp")
             fd, tmp = _hold(lambda path=path: tempfile.mkstemp(
@@ -283,6 +322,10 @@ def write_together(contents: Mapping[str | os.PathLike, bytes]) -> list[Path]:
                 backup = str(path.parent / f".{path.name}.{secrets.token_hex(8)}.old")
                 os.link(path, backup)         # fails rather than follows an existing name
                 backups[path] = backup
+                if fcntl is not None:         # held: a live writer's backup is not stale
+                    fd = _open_for_lock(backup)
+                    locks.append(fd)
+                    fcntl.flock(fd, fcntl.LOCK_EX)
         for path, tmp in temps:
             os.replace(tmp, path)
             done.append(path)
