@@ -206,8 +206,10 @@ class Identification:
     results : dict of str to CoefficientResult
     identification, validation : pandas.DataFrame
         The coefficient data (reconstructed when needed) split by maneuver, with the model
-        outputs ``model_<C>`` and ``inside_envelope`` (bool: the sample lies where the
-        identification data are; the scores count those) added to ``validation``.
+        outputs ``model_<C>``, ``inside_<C>`` (bool: inside the envelope and inside the
+        model's identified box, where its scores count) and ``inside_envelope`` (bool:
+        the sample lies in an envelope cell the identification data cover) added to
+        ``validation``.
     settings : IdentificationSettings
     metadata : dict
         Flight-data metadata.
@@ -635,6 +637,7 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         res, pred_v, new_notes, to_warn = outcomes[c]
         results[c] = res
         valid[f"model_{c}"] = pred_v
+        valid[f"inside_{c}"] = valid["inside_envelope"].to_numpy() & res.model.inside(valid)
         notes.extend(new_notes)
         for msg in to_warn:
             warnings.warn(msg, ThinDataWarning, stacklevel=3)
@@ -712,13 +715,15 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     pred_v = model.predict(valid)
     truth_v = valid[f"true_{c}"].to_numpy() if has_truth else None
     truth_i = ident[f"true_{c}"].to_numpy() if has_truth else None
-    v_scores = scores_by_coverage(valid[c].to_numpy(dtype=float), pred_v,
-                                  coverage.valid_covered, truth=truth_v,
-                                  maneuvers=valid["maneuver"].to_numpy())
+    # inside the envelope cells and inside the model's identified box: a sample beyond the
+    # identification data's range of any input (clamped by predict) is an extrapolation
+    covered = coverage.valid_covered & model.inside(valid)
+    v_scores = scores_by_coverage(valid[c].to_numpy(dtype=float), pred_v, covered,
+                                  truth=truth_v, maneuvers=valid["maneuver"].to_numpy())
     pred_i = model.predict(ident)
     i_scores = scores(y, pred_i, truth=truth_i, maneuvers=mans, max_lag=0)
     types = valid["maneuver_type"].to_numpy() if "maneuver_type" in valid.columns else None
-    inside = coverage.valid_covered if coverage.valid_covered.any() else slice(None)
+    inside = covered if covered.any() else slice(None)
     excited = excitation(c, valid[c].to_numpy(dtype=float)[inside], (valid[c].to_numpy(
         dtype=float) - pred_v)[inside], valid["maneuver"].to_numpy()[inside],
         v_scores["r2"], None if types is None else types[inside])

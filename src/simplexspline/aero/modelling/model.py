@@ -146,6 +146,24 @@ class AeroModel:
         m = multiplier_values(self.structure, x) - np.asarray(self.multiplier_offset)
         return z, m / np.asarray(self.multiplier_scale)
 
+    def inside(self, data) -> np.ndarray:
+        """Which rows lie inside the identified box: every input (scheduling variables and
+        multiplier columns) within the identification data's range, so that
+        :meth:`predict` neither clamps nor extrapolates them.
+
+        Parameters
+        ----------
+        data : DataFrame, mapping of column -> array, or array of shape (N, n)
+            As in :meth:`predict`.
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+        """
+        x = self.inputs(data)
+        lower, upper = np.asarray(self.scaling.lower), np.asarray(self.scaling.upper)
+        return np.all((x >= lower) & (x <= upper), axis=1)
+
     def predict(self, data, *, outside: str = "clamp") -> np.ndarray:
         """Evaluate the coefficient.
 
