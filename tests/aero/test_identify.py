@@ -80,12 +80,13 @@ def test_identify_scores_against_measurement_and_truth(result, table):
     # Eq. 54-55 with the square root: relative RMS = RMS / range of the measurement, on
     # the validation samples inside the identification data's envelope; the rest apart
     inside = result.validation["inside_CZ"].to_numpy()
-    # inside the envelope cells and inside the model's identified box (nothing clamped)
+    # in a covered envelope cell, in a kept simplex and inside the model's identified box
     model = cz.model
     x = result.validation[list(model.variables)].to_numpy()
     in_box = np.all((x >= model.scaling.lower) & (x <= model.scaling.upper), axis=1)
     np.testing.assert_array_equal(
-        inside, result.validation["inside_envelope"].to_numpy() & in_box)
+        inside, result.validation["inside_envelope"].to_numpy() & in_box
+        & (model.locate(x) >= 0))
     assert v["coverage"] == pytest.approx(inside.mean()) and inside.mean() > 0.8
     y = result.validation["CZ"].to_numpy()[inside]
     e = y - result.validation["model_CZ"].to_numpy()[inside]

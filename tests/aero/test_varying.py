@@ -397,3 +397,25 @@ def test_cross_validation_scores_only_the_chosen_held_out_samples(data):
     b = cv_score(s, cols, y, folds, scored=~first)[0]
     n1 = np.count_nonzero(first)
     assert np.isclose(everything ** 2 * len(y), a ** 2 * n1 + b ** 2 * (len(y) - n1))
+
+
+def test_inside_marks_rows_that_predict_would_clamp(model, data):
+    """``AeroModel.in_box``: every input (scheduling variable and multiplier column) within
+    the identified range; exactly the rows whose prediction clamping leaves unchanged."""
+    x = data[list(model.variables)].to_numpy()
+    assert model.in_box(x).all()
+    lo, hi = np.asarray(model.scaling.lower), np.asarray(model.scaling.upper)
+    beyond = x[:len(model.variables) * 2].copy()
+    for j in range(len(model.variables)):        # one input past each end in turn
+        beyond[2 * j, j] = lo[j] - 1e-3 * (hi[j] - lo[j])
+        beyond[2 * j + 1, j] = hi[j] + 1e-3 * (hi[j] - lo[j])
+    assert not model.in_box(beyond).any()
+    edge = x[:1].copy()
+    edge[0] = lo
+    assert model.in_box(edge).all()                 # the box's boundary is inside
+    np.testing.assert_array_equal(
+        model.predict(beyond, outside="clamp") == model.predict(beyond, outside="extrapolate"),
+        model.in_box(beyond))
+    assert model.inside(x[model.in_box(x)]).shape == (len(x),)
+    with pytest.raises(InputError, match="model needs column"):
+        model.in_box(data.drop(columns=[model.variables[0]]))

@@ -637,7 +637,7 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         res, pred_v, new_notes, to_warn = outcomes[c]
         results[c] = res
         valid[f"model_{c}"] = pred_v
-        valid[f"inside_{c}"] = valid["inside_envelope"].to_numpy() & res.model.inside(valid)
+        valid[f"inside_{c}"] = _covered(res.model, valid, valid["inside_envelope"].to_numpy())
         notes.extend(new_notes)
         for msg in to_warn:
             warnings.warn(msg, ThinDataWarning, stacklevel=3)
@@ -715,9 +715,7 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     pred_v = model.predict(valid)
     truth_v = valid[f"true_{c}"].to_numpy() if has_truth else None
     truth_i = ident[f"true_{c}"].to_numpy() if has_truth else None
-    # inside the envelope cells and inside the model's identified box: a sample beyond the
-    # identification data's range of any input (clamped by predict) is an extrapolation
-    covered = coverage.valid_covered & model.inside(valid)
+    covered = _covered(model, valid, coverage.valid_covered)
     v_scores = scores_by_coverage(valid[c].to_numpy(dtype=float), pred_v, covered,
                                   truth=truth_v, maneuvers=valid["maneuver"].to_numpy())
     pred_i = model.predict(ident)
@@ -755,6 +753,14 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                                time.perf_counter() - t0,
                                {"excitation": excited, "collinearity": separation})
     return result, pred_v, notes, warn
+
+
+def _covered(model: AeroModel, valid, in_cells: np.ndarray) -> np.ndarray:
+    """The validation samples whose score counts: in a covered envelope cell, in a simplex
+    of the model that held identification data, and inside the identified box of every
+    input (a sample beyond the identification data's range is clamped by ``predict``: an
+    extrapolation)."""
+    return in_cells & model.inside(valid) & model.in_box(valid)
 
 
 def _drop_zero_multipliers(s: Structure, columns: Mapping, notes: list,

@@ -146,10 +146,10 @@ class AeroModel:
         m = multiplier_values(self.structure, x) - np.asarray(self.multiplier_offset)
         return z, m / np.asarray(self.multiplier_scale)
 
-    def inside(self, data) -> np.ndarray:
+    def in_box(self, data) -> np.ndarray:
         """Which rows lie inside the identified box: every input (scheduling variables and
         multiplier columns) within the identification data's range, so that
-        :meth:`predict` neither clamps nor extrapolates them.
+        :meth:`predict` does not clamp them (compare :meth:`inside`: in a kept simplex).
 
         Parameters
         ----------
@@ -214,7 +214,8 @@ class AeroModel:
         return self.spline.triangulation.locate(z)
 
     def inside(self, data) -> np.ndarray:
-        """Boolean mask: the inputs lie in a kept simplex of the identified domain."""
+        """Boolean mask: the scheduling variables lie in a kept simplex of the identified
+        domain (one that held identification data; compare :meth:`in_box`)."""
         return self.locate(data) >= 0
 
     # ------------------------------------------------------------------ files
