@@ -462,3 +462,34 @@ def test_calibration_pass_prefers_maneuvers_that_turn():
     assert heading_excursion(level) == 0.0
     with pytest.raises(InputError, match="calibration_maneuvers"):
         ReconstructionSettings(calibration_maneuvers=0)
+
+
+@pytest.fixture(scope="module")
+def windy_turn():
+    """One 15-20 s sum-of-sines maneuver flown in a turn in an 8 m/s wind (default sensors)."""
+    from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
+    from simplexspline.sim.wind import Wind
+
+    return Campaign("f16", maneuvers=1, seed=5, sensors=SensorModel(), wind=Wind((8.0, 8.0)),
+                    grid=ConditionGrid(altitudes_m=[3000.0], airspeeds_mps=[160.0]),
+                    protocol=FlightProtocol(mix={"sum-of-sines": 1}, sos_duration_s=(15.0, 20.0),
+                                            turn_fraction=1.0)).run(workers=1, progress=False)
+
+
+def test_wind_without_heading_channel_in_a_turn(windy_turn, noisy_campaign):
+    """No heading, no beta vane, GPS positions only: the wind triangle starts the heading and
+    the wind where a turn determines them; a straight maneuver is flagged as weak."""
+    drop = ["psi", "beta", "vn_gps", "ve_gps", "vd_gps"]
+    task = {c: windy_turn[c].to_numpy() for c in ("t", "q", "r", "phi", "theta")}
+    assert heading_excursion(task) > 0.4                        # rad: the turn
+    rec = reconstruct(windy_turn.drop(columns=drop))
+    d = rec.data
+    err = (d[["wind_n", "wind_e"]].to_numpy()
+           - d[["true_wind_n", "true_wind_e"]].to_numpy())
+    assert np.sqrt(np.mean(np.sum(err ** 2, axis=1))) < 0.5                  # m/s horizontal
+    assert abs(np.angle(np.exp(1j * (d["psi"] - d["true_psi"]))).mean()) < 3e-3   # rad
+    assert "WEAK" not in rec.maneuvers[0]["observability"]["wind"]
+    straight = _with_wind(noisy_campaign[noisy_campaign["maneuver"] == 3], (5.0, -8.0, 0.0))
+    rec = reconstruct(straight.drop(columns=drop))
+    assert "crosswind and heading WEAK" in rec.maneuvers[3]["observability"]["wind"]
+    assert "crosswind and heading WEAK" in rec.summary()

@@ -20,9 +20,13 @@ filter's own variance reduction is checked afterwards by :func:`variance_reducti
   filter keeps the kinematic dynamics and assumes a zero mean over the maneuver (a
   pseudo-measurement beta = 0 with a wide sigma, ``beta_pseudo_std``: maneuvers start from
   trimmed, near-symmetric flight); without GPS the models in beta (CY, Cl, Cn) are flagged.
-* **no heading**: with GPS velocities the heading follows from the GPS track, the air data
-  and the wind (well in turns, weakly in straight flight); without GPS it is not observable
-  and not needed (nothing else depends on it): it is not reconstructed (NaN).
+* **no heading**: with GPS the heading follows from the GPS track, the air data and the
+  wind in turns; in straight flight a heading error and a crosswind error give the same
+  data, so the driver starts heading and wind from the wind triangle
+  (:mod:`~simplexspline.aero.reconstruction.wind_triangle`) when the maneuver turns by at
+  least ``MIN_HEADING_CHANGE`` and otherwise flags the crosswind and heading as weak.
+  Without GPS it is not observable and not needed (nothing else depends on it): it is not
+  reconstructed (NaN).
 * **no accelerometers**: the body velocities become a random walk observed by the air data
   (and GPS); accelerometer biases are not estimated and the force coefficients are not
   computed (moment coefficients only).

@@ -45,6 +45,9 @@ from simplexspline.aero.reconstruction.observability import (
 from simplexspline.aero.reconstruction.sensor_corrections import (
     estimate_lag, rotation_velocity, specific_force_at_cg, undo_lag,
 )
+from simplexspline.aero.reconstruction.wind_triangle import (
+    MIN_HEADING_CHANGE, WindTriangle, wind_triangle,
+)
 from simplexspline.aero.variables import DEG
 from simplexspline.errors import FlightDataError, InputError
 
@@ -359,7 +362,17 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         q_model[STATE_NAMES.index(name)] = 0.0
     noise = FilterNoise(input_std=np.array([s["input_noise"][c] for c in INPUT_NAMES]),
                         process_var=q_model, measurement_std=meas_std)
-    initial = initial_state(z, s["prior"], present=present, held=plan["held"], task=task)
+    triangle = None
+    if not present["psi"] and "wind_n" not in plan["held"]:
+        triangle = _wind_triangle(z, rates, dt, present)
+        if triangle is not None:
+            plan["heading_change"] = triangle.heading_change
+            if triangle.heading_change < MIN_HEADING_CHANGE:
+                plan["wind"] += (f"; crosswind and heading WEAK: no heading channel and the "
+                                 f"heading changes by {math.degrees(triangle.heading_change):.0f}"
+                                 f" deg (< {math.degrees(MIN_HEADING_CHANGE):.0f} deg)")
+    initial = initial_state(z, s["prior"], present=present, held=plan["held"], task=task,
+                            triangle=triangle)
     for k, (value, _) in calibration.items():
         initial.x[STATE_NAMES.index(k)] = value     # held there (variance at the floor)
     if s.get("calibration_pass"):
@@ -483,6 +496,21 @@ def _corrected(task: Mapping, geo: Mapping, dt: float) -> dict:
     return task
 
 
+def _wind_triangle(z: np.ndarray, rates: np.ndarray, dt: float,
+                   present: Mapping) -> WindTriangle | None:
+    """The wind triangle of one maneuver from its GPS positions, else integrated GPS
+    velocities (:func:`~simplexspline.aero.reconstruction.wind_triangle.wind_triangle`)."""
+    col = {c: z[:, j] for j, c in enumerate(MEASUREMENT_NAMES)}
+    if present["gps_position"]:
+        north, east = col["x_gps"], col["y_gps"]
+    else:
+        north = np.cumsum(np.nan_to_num(col["vn_gps"])) * dt
+        east = np.cumsum(np.nan_to_num(col["ve_gps"])) * dt
+    return wind_triangle(dt, col["tas"], col["alpha"],
+                         col["beta"] if present["beta"] else None, col["phi"], col["theta"],
+                         rates[:, 1], rates[:, 2], north, east)
+
+
 def _gps_track(z: np.ndarray) -> float:
     """Ground track [rad] at the start: GPS velocity, else the first ~2 s of positions."""
     jn, je = MEASUREMENT_NAMES.index("vn_gps"), MEASUREMENT_NAMES.index("ve_gps")
@@ -504,7 +532,8 @@ def _first_valid(z: np.ndarray, j: int) -> float:
 
 
 def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = None,
-                  held: Mapping | None = None, task: Mapping | None = None) -> StateEstimate:
+                  held: Mapping | None = None, task: Mapping | None = None,
+                  triangle: WindTriangle | None = None) -> StateEstimate:
     """Initial state from the first valid air-data, attitude and GPS samples.
 
     Parameters
@@ -520,12 +549,18 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
         States held at their prior (their standard deviation is set to 1e-8).
     task : mapping, optional
         The maneuver's columns (for given ``wind_*``).
+    triangle : WindTriangle, optional
+        Without a heading channel: the maneuver's wind triangle. When its heading change
+        reaches :data:`~simplexspline.aero.reconstruction.wind_triangle.MIN_HEADING_CHANGE`,
+        the heading and the wind start at its solution; otherwise the heading starts at the
+        GPS track.
 
     Returns
     -------
     StateEstimate
-        Biases start at zero, the wind at zero or the mean of the given ``wind_*``
-        columns; the covariance is diagonal.
+        Biases start at zero; the wind at zero, the mean of the given ``wind_*`` columns or
+        the wind triangle's; the body velocity is the air data's plus the initial wind.
+        The covariance is diagonal.
     """
     m = {c: _first_valid(z, j) for j, c in enumerate(MEASUREMENT_NAMES)}
     held = {} if held is None else held
@@ -538,13 +573,21 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
     psi, psi_sd = m["psi"], prior["attitude"]
     if not math.isfinite(psi):
         track = _gps_track(z)
-        if math.isfinite(track):
+        if triangle is not None and triangle.heading_change >= MIN_HEADING_CHANGE:
+            psi, psi_sd = triangle.psi0, prior["heading"]
+            x0[18:20] = [triangle.wind_n, triangle.wind_e]
+        elif math.isfinite(track):
             psi, psi_sd = track, prior["heading"]
         else:
             psi, psi_sd = 0.0, 1e-8      # not observable and not needed
     x0[6:9] = [m["phi"], m["theta"], psi]
     if task is not None and all(c in task for c in WIND_STATES):
         x0[18:21] = [float(np.nanmean(task[c])) for c in WIND_STATES]
+    # Earth-relative body velocity = air-relative + C_bn W (_air_velocity of a state at
+    # rest is -C_bn W)
+    at_rest = x0.copy()
+    at_rest[3:6] = 0.0
+    x0[3:6] -= _air_velocity(at_rest[None, :])[0]
     sd = np.empty(NX)
     sd[0:3] = prior["position"]
     sd[3:6] = prior["velocity"]
@@ -798,11 +841,19 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     A state no maneuver estimates (no GPS anywhere, no vane), or whose combined sigma is
     above half its prior (the campaign barely observes it), is left out: the second pass
     then holds it at zero when the maneuver has no GPS, or estimates it per maneuver.
+    Without a heading channel only maneuvers that turn by at least
+    :data:`~simplexspline.aero.reconstruction.wind_triangle.MIN_HEADING_CHANGE` are used
+    when there are any.
     """
     gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
     if not gps:
         return {}
     gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
+    # without a heading channel a straight maneuver trades its heading against a crosswind
+    # and the air-data errors with them (wind_triangle): calibrate on the turns if any
+    turning = [t for t in gps if heading_excursion(t) >= MIN_HEADING_CHANGE]
+    if turning and not all(channels_present(t)["psi"] for t in gps):
+        gps = turning
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
     results = _run_all(gps, s, workers, progress)
     out = {}
