@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -392,14 +393,23 @@ def test_channel_lags_are_undone_or_estimated(noisy_campaign):
     t = one["t"].to_numpy()
     late = one.copy()
     late["alpha"] = np.interp(t - lag, t, one["alpha"].to_numpy())
-    est = reconstruct(late).maneuvers[3]["lags"]["alpha"]
+    diagnostic = reconstruct(late, settings=ReconstructionSettings(apply_estimated_lags=False))
+    est = diagnostic.maneuvers[3]["lags"]["alpha"]
     assert est[0] == pytest.approx(lag, abs=0.03) and est[0] > 3 * est[1]
-    assert "alpha: lags the reconstruction by" in reconstruct(late).summary()
+    assert "alpha: lags the reconstruction by" in diagnostic.summary()
+    assert diagnostic.lags_applied == {}
+    # default: the estimated lag is undone and the maneuver reconstructed once more
+    applied = reconstruct(late)
+    assert applied.lags_applied["alpha"] == pytest.approx(lag, abs=0.01)
+    assert abs(applied.maneuvers[3]["lags"]["alpha"][0]) < 0.01
+    assert re.search(r"alpha: lag 0\.0[78]\d* s undone before the filter", applied.summary())
+    assert applied.data.attrs["reconstruction"]["lags_applied_s"] == applied.lags_applied
     late.attrs = {**one.attrs, "sensor_geometry": {"lag_s": {"alpha": lag}}}
-    fixed = reconstruct(late)
-    assert abs(fixed.maneuvers[3]["lags"]["alpha"][0]) < 0.02
-    d = fixed.data
-    assert _rms(d["alpha"] - d["true_alpha"]) < DEFAULT_NOISE_STD["alpha"]
+    lagged = _rms(diagnostic.data["alpha"] - diagnostic.data["true_alpha"])
+    for rec in (applied, reconstruct(late)):            # estimated, or given in metadata
+        assert abs(rec.maneuvers[3]["lags"]["alpha"][0]) < 0.02
+        d = rec.data
+        assert _rms(d["alpha"] - d["true_alpha"]) < 0.5 * lagged       # measured 0.26x
 
 
 def test_imu_lever_arm_from_metadata(ideal_campaign):
