@@ -30,6 +30,9 @@ filter's own variance reduction is checked afterwards by :func:`variance_reducti
 * **no accelerometers**: the body velocities become a random walk observed by the air data
   (and GPS); accelerometer biases are not estimated and the force coefficients are not
   computed (moment coefficients only).
+* **GPS latitude and longitude only** (no ``z_gps``, no ``vd_gps``): the horizontal wind is
+  estimated; the vertical wind is not observable (the Earth-relative vertical velocity is
+  not measured) and is held at zero.
 * **vane scale factors** are estimated only with GPS and when asked for.
 """
 
@@ -65,12 +68,15 @@ def channels_present(task: Mapping) -> dict:
     Returns
     -------
     dict of str to bool
-        ``gps_velocity``, ``gps_position`` (all three axes each), ``accelerometers``,
-        ``beta``, ``psi``, ``wind_given`` (``wind_*`` columns).
+        ``gps_velocity`` (all three axes), ``gps_position`` (north and east: a record of
+        latitude and longitude without GPS altitude counts), ``gps_vertical`` (``z_gps`` or
+        ``vd_gps``), ``accelerometers``, ``beta``, ``psi``, ``wind_given`` (``wind_*``
+        columns).
     """
     return {
         "gps_velocity": all(_has(task, c) for c in GPS_VELOCITY),
-        "gps_position": all(_has(task, c) for c in GPS_POSITION),
+        "gps_position": all(_has(task, c) for c in GPS_POSITION[:2]),
+        "gps_vertical": _has(task, "z_gps") or _has(task, "vd_gps"),
         "accelerometers": all(_has(task, c) for c in ACCELEROMETERS),
         "beta": _has(task, "beta"),
         "psi": _has(task, "psi"),
@@ -106,6 +112,9 @@ def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True) ->
         for s in _AIR_DATA_ERRORS:
             held[s] = why + ": held at zero (the sensor's calibration error stays in the data)"
         held["kalpha"] = held["kbeta"] = why + ": held at zero"
+    if gps and not present.get("gps_vertical", True):
+        held["wind_d"] = ("unobservable without a vertical GPS channel (z_gps or vd_gps): "
+                          "held at zero")
     if not estimate_vane_scale:
         held.setdefault("kalpha", "not requested (estimate_vane_scale=False)")
         held.setdefault("kbeta", "not requested (estimate_vane_scale=False)")

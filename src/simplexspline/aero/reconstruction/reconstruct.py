@@ -54,6 +54,8 @@ from simplexspline.errors import FlightDataError, InputError
 __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstruct_maneuver",
            "innovation_statistics", "significant_lags"]
 
+#: Largest sample interval [s] at which ``rate_integration='auto'`` uses the Euler step.
+_EULER_MAX_DT = 0.0101
 #: Constant air-data errors estimated for the whole campaign (``air_data_calibration``).
 CALIBRATION_STATES = ("btas", "balpha", "bbeta", "kalpha", "kbeta")
 #: Channels a maneuver cannot be reconstructed without (at least one valid sample each).
@@ -133,10 +135,17 @@ class ReconstructionSettings:
         Estimate each air-data and attitude channel's time lag against the reconstruction
         (known lags go in metadata ``sensor_geometry.lag_s`` and are undone first).
     apply_estimated_lags : bool
-        When a channel lags significantly (beyond 3 sigma and half a sample, in most
-        maneuvers), undo the median estimated lag (on top of any given one) and reconstruct
+        When a channel lags significantly (beyond 3 sigma and half a sample or 0.02 s, in
+        most maneuvers), undo the median estimated lag (on top of any given one) and reconstruct
         again, at most 3 times while a significant lag remains
         (``Reconstruction.lags_applied``). Needs ``estimate_lags``.
+    rate_integration : {'auto', 'euler', 'trapezoid'}
+        How the body rates drive the attitude over one step: 'euler', the rate at the start
+        of the step (what JSBSim does at its 100 Hz step, so exact for the simulator's
+        full-rate data); 'trapezoid', the mean of the step's two samples (a record sampled
+        at 10-20 Hz from an aircraft that moves continuously: at 10 Hz the Euler step leaves
+        attitude errors of 0.5 dt^2 |omega dot|, several times the attitude noise);
+        'auto' (default): 'euler' up to 0.01 s sample interval, else 'trapezoid'.
     air_data_calibration : {'campaign', 'maneuver'}
         With GPS, a constant wind and constant air-data errors (airspeed bias, vane offsets
         and scale factors) can be told apart only through heading changes, so one maneuver
@@ -170,6 +179,7 @@ class ReconstructionSettings:
     velocity_random_walk: float = 5.0
     estimate_lags: bool = True
     apply_estimated_lags: bool = True
+    rate_integration: str = "auto"
     air_data_calibration: str = "campaign"
     calibration_maneuvers: int = 20
 
@@ -199,6 +209,8 @@ class ReconstructionSettings:
         if int(self.calibration_maneuvers) != self.calibration_maneuvers or \
                 self.calibration_maneuvers < 1:
             raise InputError("calibration_maneuvers must be a positive integer")
+        if self.rate_integration not in ("auto", "euler", "trapezoid"):
+            raise InputError("rate_integration must be 'auto', 'euler' or 'trapezoid'")
         if self.air_data_calibration not in ("campaign", "maneuver"):
             raise InputError("air_data_calibration must be 'campaign' or 'maneuver'")
         if self.accelerations not in ("auto", "measured", "differentiate"):
@@ -326,9 +338,13 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         if np.any(imu != 0) or np.ndim(cg) == 2:
             acc = specific_force_at_cg(acc, rates, dt, imu - cg)
         u[:, :3] = acc
-        # trapezoidal specific force over each step (JSBSim's translational integration);
-        # the body rates enter at the start of the step (explicit Euler, as JSBSim)
+        # trapezoidal specific force over each step (JSBSim's translational integration)
         u[:-1, :3] = 0.5 * (acc[:-1] + acc[1:])
+    # the body rates enter at the start of the step (explicit Euler, as JSBSim at 100 Hz),
+    # or as the mean over the step for data sampled coarser than the aircraft moves
+    if s["rate_integration"] == "trapezoid" or (s["rate_integration"] == "auto"
+                                                and dt > _EULER_MAX_DT):
+        u[:-1, 3:] = 0.5 * (rates[:-1] + rates[1:])
     arm = np.hstack([rotation_velocity(rates, np.asarray(geo.get(k, (0.0, 0.0, 0.0)),
                                                          dtype=float) - cg)
                      for k in ("alpha_vane_position_m", "beta_vane_position_m")])
@@ -616,6 +632,10 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
 
 # ----------------------------------------------------------------------------- campaign
 
+#: Lags [s] above this (and 3 sigma) count even when below half a sample.
+MIN_LAG_S = 0.02
+
+
 def significant_lags(per_maneuver: list, dt: float | None) -> dict:
     """Channels that lag the reconstruction in most maneuvers, with their median lag.
 
@@ -624,7 +644,10 @@ def significant_lags(per_maneuver: list, dt: float | None) -> dict:
     per_maneuver : list of dict
         Per maneuver, channel -> (lag, sigma) [s] (the ``lags`` of a maneuver's result).
     dt : float or None
-        Sample interval [s]; a lag must exceed half of it (and 3 sigma) to count.
+        Sample interval [s]; a lag must exceed 3 sigma and the smaller of half a sample and
+        :data:`MIN_LAG_S` to count (at 10 Hz a 0.05 s airspeed and vane lag biased the
+        airspeed calibration by 2.5 m/s on a real-like record: half a sample is too coarse
+        a limit there).
 
     Returns
     -------
@@ -635,7 +658,8 @@ def significant_lags(per_maneuver: list, dt: float | None) -> dict:
     lags: dict = {}
     for r in per_maneuver:
         for ch, (lag, sd) in r.items():
-            if abs(lag) > 3 * sd and (dt is None or abs(lag) > dt / 2):
+            if abs(lag) > 3 * sd and abs(lag) > (MIN_LAG_S if dt is None
+                                                 else min(dt / 2, MIN_LAG_S)):
                 lags.setdefault(ch, []).append(lag)
     return {ch: float(np.median(v)) for ch, v in lags.items()
             if len(v) > len(per_maneuver) / 2}
@@ -694,7 +718,7 @@ class Reconstruction:
             ``held``: state -> reason (held at its prior, not estimated: unobservable or
             no sensor); ``weakly_observed``: states whose final sigma exceeds half their
             prior in most maneuvers; ``lags_s``: channel -> median estimated lag [s] over
-            the maneuvers where it is significant (more than 3 sigma and half a sample);
+            the maneuvers where it is significant (more than 3 sigma and the smaller of half a sample and MIN_LAG_S);
             ``thrust``, ``angular_accelerations``; ``flags``: coefficient -> why its data
             are incomplete or its inputs unreliable.
         """
@@ -904,7 +928,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
 
 #: Most reconstructions with estimated lags undone: the smoothed states partly follow a
 #: late channel, so one estimate finds about 85 % of a lag (0.068 of 0.08 s at 100 Hz);
-#: each further pass finds most of the rest, until it is below half a sample or 3 sigma.
+#: each further pass finds most of the rest, until none is significant (significant_lags).
 _LAG_PASSES = 3
 
 
