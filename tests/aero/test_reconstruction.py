@@ -503,3 +503,32 @@ def test_wind_without_heading_channel_in_a_turn(windy_turn, noisy_campaign):
     rec = reconstruct(straight.drop(columns=drop))
     assert "crosswind and heading WEAK" in rec.maneuvers[3]["observability"]["wind"]
     assert "crosswind and heading WEAK" in rec.summary()
+
+
+def test_gps_latitude_longitude_only_estimates_the_horizontal_wind(noisy_campaign):
+    """A record with GPS latitude and longitude but no GPS altitude or velocities (the
+    19 s sum-of-sines maneuver; a straight 11 s 3211 leaves the along-track wind and the
+    airspeed bias apart by metres per second, with or without GPS altitude)."""
+    wind = (5.0, -8.0, 0.0)
+    one = _with_wind(noisy_campaign[noisy_campaign["maneuver"] == 0], wind)
+    rec = reconstruct(one.drop(columns=["z_gps", "vn_gps", "ve_gps", "vd_gps"]))
+    held = rec.maneuvers[0]["held"]
+    assert "vertical GPS" in held["wind_d"] and "wind_n" not in held
+    d = rec.data
+    err = d[["wind_n", "wind_e"]].to_numpy() - wind[:2]
+    assert np.sqrt(np.mean(np.sum(err ** 2, axis=1))) < 0.5                  # m/s
+    assert np.abs(d["wind_d"]).max() < 1e-9                                  # held at zero
+
+
+def test_rates_averaged_over_the_step_at_10_hz(noisy_campaign):
+    """At 10 Hz the rate at the start of a step leaves attitude errors; the step mean not."""
+    one = noisy_campaign[noisy_campaign["maneuver"] == 0]
+    coarse = one[np.round(one["t"] * 100).astype(int) % 10 == 0]
+    err = {}
+    for how in ("euler", "auto"):
+        rec = reconstruct(coarse, settings=ReconstructionSettings(rate_integration=how))
+        d = rec.data
+        err[how] = _rms(d["theta"] - d["true_theta"]) + _rms(d["phi"] - d["true_phi"])
+    assert err["auto"] < 0.5 * err["euler"]
+    with pytest.raises(InputError, match="rate_integration"):
+        ReconstructionSettings(rate_integration="simpson")
