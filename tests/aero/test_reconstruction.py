@@ -257,6 +257,10 @@ def test_settings_validation(noisy_campaign):
     assert s.measurement_noise["tas"] == 0.2 and s.measurement_noise["alpha"] > 0
 
 
+def test_no_airspeed_flag_with_gps(noisy_reconstruction):
+    assert "all" not in noisy_reconstruction.sensors()["flags"]
+
+
 def test_result_type(noisy_reconstruction):
     assert isinstance(noisy_reconstruction, Reconstruction)
     assert noisy_reconstruction.thrust_subtracted
@@ -323,6 +327,8 @@ def test_without_gps_unobservable_biases_are_held_and_reported(noisy_campaign):
         assert rec.maneuvers[3]["biases"][ch][0] == pytest.approx(0.0, abs=1e-9)
     assert "wind_n" not in rec.data
     assert "tas: not estimated, unobservable without GPS" in rec.summary()
+    assert "1 - 2 b / V" in rec.sensors()["flags"]["all"]        # what it does to C
+    assert "all: airspeed bias unobservable" in rec.summary()
     # the airspeed error is the sensor's own calibration error, not a per-maneuver guess
     err = rec.data["tas"] - rec.data["true_tas"]
     assert abs(err.mean() - DEFAULT_BIAS["tas"]) < 0.05

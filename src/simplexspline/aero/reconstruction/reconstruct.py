@@ -760,6 +760,11 @@ class Reconstruction:
                                     "in beta unreliable")
         if self.thrust == "included":
             flags.setdefault("CX", "includes thrust")
+        if str(held.get("tas", "")).startswith("unobservable"):
+            flags["all"] = ("airspeed bias unobservable (no GPS) and held at zero: a bias b "
+                            "in V scales every coefficient by about 1 - 2 b / V (0.5 % per "
+                            "0.5 m/s at 200 m/s), alike in all maneuvers; give a known "
+                            "airspeed calibration or GPS")
         out["flags"] = flags
         return out
 
