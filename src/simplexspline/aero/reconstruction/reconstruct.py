@@ -136,8 +136,8 @@ class ReconstructionSettings:
         (known lags go in metadata ``sensor_geometry.lag_s`` and are undone first).
     apply_estimated_lags : bool
         When a channel lags significantly (beyond 3 sigma and half a sample or 0.02 s, in
-        most maneuvers), undo the median estimated lag (on top of any given one) and reconstruct
-        again, at most 3 times while a significant lag remains
+        most maneuvers), undo the median estimated lag (on top of any given one) and
+        reconstruct again, at most 3 times while a significant lag remains
         (``Reconstruction.lags_applied``). Needs ``estimate_lags``.
     rate_integration : {'auto', 'euler', 'trapezoid'}
         How the body rates drive the attitude over one step: 'euler', the rate at the start
@@ -388,7 +388,6 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     if not present["psi"] and "wind_n" not in plan["held"]:
         triangle = _wind_triangle(z, rates, dt, present)
         if triangle is not None:
-            plan["heading_change"] = triangle.heading_change
             if triangle.heading_change < MIN_HEADING_CHANGE:
                 plan["wind"] += (f"; crosswind and heading WEAK: no heading channel and the "
                                  f"heading changes by {math.degrees(triangle.heading_change):.0f}"
@@ -525,9 +524,11 @@ def _wind_triangle(z: np.ndarray, rates: np.ndarray, dt: float,
     col = {c: z[:, j] for j, c in enumerate(MEASUREMENT_NAMES)}
     if present["gps_position"]:
         north, east = col["x_gps"], col["y_gps"]
-    else:
-        north = np.cumsum(np.nan_to_num(col["vn_gps"])) * dt
-        east = np.cumsum(np.nan_to_num(col["ve_gps"])) * dt
+    else:                                   # integrated velocities, gaps interpolated
+        k = np.arange(z.shape[0])
+        ok = np.isfinite(col["vn_gps"]) & np.isfinite(col["ve_gps"])
+        north = np.cumsum(np.interp(k, k[ok], col["vn_gps"][ok])) * dt
+        east = np.cumsum(np.interp(k, k[ok], col["ve_gps"][ok])) * dt
     return wind_triangle(dt, col["tas"], col["alpha"],
                          col["beta"] if present["beta"] else None, col["phi"], col["theta"],
                          rates[:, 1], rates[:, 2], north, east)
@@ -718,7 +719,7 @@ class Reconstruction:
             ``held``: state -> reason (held at its prior, not estimated: unobservable or
             no sensor); ``weakly_observed``: states whose final sigma exceeds half their
             prior in most maneuvers; ``lags_s``: channel -> median estimated lag [s] over
-            the maneuvers where it is significant (more than 3 sigma and the smaller of half a sample and MIN_LAG_S);
+            the maneuvers where it is significant (:func:`significant_lags`);
             ``thrust``, ``angular_accelerations``; ``flags``: coefficient -> why its data
             are incomplete or its inputs unreliable.
         """
