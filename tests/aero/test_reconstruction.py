@@ -257,6 +257,14 @@ def test_settings_validation(noisy_campaign):
     assert s.measurement_noise["tas"] == 0.2 and s.measurement_noise["alpha"] > 0
 
 
+def test_without_gps_and_beta_vane_the_lateral_accelerometer_bias_is_held(noisy_campaign):
+    one = noisy_campaign[noisy_campaign["maneuver"] == 3].drop(columns=GPS + ["beta"])
+    rec = reconstruct(one)
+    assert "unobservable without GPS and sideslip vane" in rec.maneuvers[3]["held"]["ay"]
+    assert rec.maneuvers[3]["biases"]["ay"][0] == pytest.approx(0.0, abs=1e-12)
+    assert "ay: not estimated, unobservable without GPS and sideslip vane" in rec.summary()
+
+
 def test_no_airspeed_flag_with_gps(noisy_reconstruction):
     assert "all" not in noisy_reconstruction.sensors()["flags"]
 
