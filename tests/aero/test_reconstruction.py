@@ -513,6 +513,8 @@ def test_wind_without_heading_channel_in_a_turn(windy_turn, noisy_campaign):
     assert np.sqrt(np.mean(np.sum(err ** 2, axis=1))) < 0.5                  # m/s horizontal
     assert abs(np.angle(np.exp(1j * (d["psi"] - d["true_psi"]))).mean()) < 3e-3   # rad
     assert "WEAK" not in rec.maneuvers[0]["observability"]["wind"]
+    assert rec.maneuvers[0]["observability"]["psi"].startswith(
+        "estimated from the GPS track and the wind triangle")
     straight = _with_wind(noisy_campaign[noisy_campaign["maneuver"] == 3], (5.0, -8.0, 0.0))
     rec = reconstruct(straight.drop(columns=drop))
     assert "crosswind and heading WEAK" in rec.maneuvers[3]["observability"]["wind"]

@@ -387,11 +387,13 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     triangle = None
     if not present["psi"] and "wind_n" not in plan["held"]:
         triangle = _wind_triangle(z, rates, dt, present)
-        if triangle is not None:
-            if triangle.heading_change < MIN_HEADING_CHANGE:
-                plan["wind"] += (f"; crosswind and heading WEAK: no heading channel and the "
-                                 f"heading changes by {math.degrees(triangle.heading_change):.0f}"
-                                 f" deg (< {math.degrees(MIN_HEADING_CHANGE):.0f} deg)")
+        turn = f"{math.degrees(MIN_HEADING_CHANGE):.0f} deg"
+        if triangle is not None and triangle.heading_change < MIN_HEADING_CHANGE:
+            plan["wind"] += (f"; crosswind and heading WEAK: no heading channel and the "
+                             f"heading changes by less than {turn}")
+        elif triangle is not None:
+            plan["psi"] = (f"estimated from the GPS track and the wind triangle (no heading "
+                           f"channel; the maneuver turns by {turn} or more)")
     initial = initial_state(z, s["prior"], present=present, held=plan["held"], task=task,
                             triangle=triangle)
     for k, (value, _) in calibration.items():
