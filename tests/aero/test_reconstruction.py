@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -256,6 +257,18 @@ def test_settings_validation(noisy_campaign):
     assert s.measurement_noise["tas"] == 0.2 and s.measurement_noise["alpha"] > 0
 
 
+def test_without_gps_and_beta_vane_the_lateral_accelerometer_bias_is_held(noisy_campaign):
+    one = noisy_campaign[noisy_campaign["maneuver"] == 3].drop(columns=GPS + ["beta"])
+    rec = reconstruct(one)
+    assert "unobservable without GPS and sideslip vane" in rec.maneuvers[3]["held"]["ay"]
+    assert rec.maneuvers[3]["biases"]["ay"][0] == pytest.approx(0.0, abs=1e-12)
+    assert "ay: not estimated, unobservable without GPS and sideslip vane" in rec.summary()
+
+
+def test_no_airspeed_flag_with_gps(noisy_reconstruction):
+    assert "all" not in noisy_reconstruction.sensors()["flags"]
+
+
 def test_result_type(noisy_reconstruction):
     assert isinstance(noisy_reconstruction, Reconstruction)
     assert noisy_reconstruction.thrust_subtracted
@@ -322,6 +335,8 @@ def test_without_gps_unobservable_biases_are_held_and_reported(noisy_campaign):
         assert rec.maneuvers[3]["biases"][ch][0] == pytest.approx(0.0, abs=1e-9)
     assert "wind_n" not in rec.data
     assert "tas: not estimated, unobservable without GPS" in rec.summary()
+    assert "1 - 2 b / V" in rec.sensors()["flags"]["all"]        # what it does to C
+    assert "all: airspeed bias unobservable" in rec.summary()
     # the airspeed error is the sensor's own calibration error, not a per-maneuver guess
     err = rec.data["tas"] - rec.data["true_tas"]
     assert abs(err.mean() - DEFAULT_BIAS["tas"]) < 0.05
@@ -392,14 +407,23 @@ def test_channel_lags_are_undone_or_estimated(noisy_campaign):
     t = one["t"].to_numpy()
     late = one.copy()
     late["alpha"] = np.interp(t - lag, t, one["alpha"].to_numpy())
-    est = reconstruct(late).maneuvers[3]["lags"]["alpha"]
+    diagnostic = reconstruct(late, settings=ReconstructionSettings(apply_estimated_lags=False))
+    est = diagnostic.maneuvers[3]["lags"]["alpha"]
     assert est[0] == pytest.approx(lag, abs=0.03) and est[0] > 3 * est[1]
-    assert "alpha: lags the reconstruction by" in reconstruct(late).summary()
+    assert "alpha: lags the reconstruction by" in diagnostic.summary()
+    assert diagnostic.lags_applied == {}
+    # default: the estimated lag is undone and the maneuver reconstructed once more
+    applied = reconstruct(late)
+    assert applied.lags_applied["alpha"] == pytest.approx(lag, abs=0.01)
+    assert abs(applied.maneuvers[3]["lags"]["alpha"][0]) < 0.01
+    assert re.search(r"alpha: lag 0\.0[78]\d* s undone before the filter", applied.summary())
+    assert applied.data.attrs["reconstruction"]["lags_applied_s"] == applied.lags_applied
     late.attrs = {**one.attrs, "sensor_geometry": {"lag_s": {"alpha": lag}}}
-    fixed = reconstruct(late)
-    assert abs(fixed.maneuvers[3]["lags"]["alpha"][0]) < 0.02
-    d = fixed.data
-    assert _rms(d["alpha"] - d["true_alpha"]) < DEFAULT_NOISE_STD["alpha"]
+    lagged = _rms(diagnostic.data["alpha"] - diagnostic.data["true_alpha"])
+    for rec in (applied, reconstruct(late)):            # estimated, or given in metadata
+        assert abs(rec.maneuvers[3]["lags"]["alpha"][0]) < 0.02
+        d = rec.data
+        assert _rms(d["alpha"] - d["true_alpha"]) < 0.5 * lagged       # measured 0.26x
 
 
 def test_imu_lever_arm_from_metadata(ideal_campaign):
@@ -462,3 +486,65 @@ def test_calibration_pass_prefers_maneuvers_that_turn():
     assert heading_excursion(level) == 0.0
     with pytest.raises(InputError, match="calibration_maneuvers"):
         ReconstructionSettings(calibration_maneuvers=0)
+
+
+@pytest.fixture(scope="module")
+def windy_turn():
+    """One 15-20 s sum-of-sines maneuver flown in a turn in an 8 m/s wind (default sensors)."""
+    from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
+    from simplexspline.sim.wind import Wind
+
+    return Campaign("f16", maneuvers=1, seed=5, sensors=SensorModel(), wind=Wind((8.0, 8.0)),
+                    grid=ConditionGrid(altitudes_m=[3000.0], airspeeds_mps=[160.0]),
+                    protocol=FlightProtocol(mix={"sum-of-sines": 1}, sos_duration_s=(15.0, 20.0),
+                                            turn_fraction=1.0)).run(workers=1, progress=False)
+
+
+def test_wind_without_heading_channel_in_a_turn(windy_turn, noisy_campaign):
+    """No heading, no beta vane, GPS positions only: the wind triangle starts the heading and
+    the wind where a turn determines them; a straight maneuver is flagged as weak."""
+    drop = ["psi", "beta", "vn_gps", "ve_gps", "vd_gps"]
+    task = {c: windy_turn[c].to_numpy() for c in ("t", "q", "r", "phi", "theta")}
+    assert heading_excursion(task) > 0.4                        # rad: the turn
+    rec = reconstruct(windy_turn.drop(columns=drop))
+    d = rec.data
+    err = (d[["wind_n", "wind_e"]].to_numpy()
+           - d[["true_wind_n", "true_wind_e"]].to_numpy())
+    assert np.sqrt(np.mean(np.sum(err ** 2, axis=1))) < 0.5                  # m/s horizontal
+    assert abs(np.angle(np.exp(1j * (d["psi"] - d["true_psi"]))).mean()) < 3e-3   # rad
+    assert "WEAK" not in rec.maneuvers[0]["observability"]["wind"]
+    assert rec.maneuvers[0]["observability"]["psi"].startswith(
+        "estimated from the GPS track and the wind triangle")
+    straight = _with_wind(noisy_campaign[noisy_campaign["maneuver"] == 3], (5.0, -8.0, 0.0))
+    rec = reconstruct(straight.drop(columns=drop))
+    assert "crosswind and heading WEAK" in rec.maneuvers[3]["observability"]["wind"]
+    assert "crosswind and heading WEAK" in rec.summary()
+
+
+def test_gps_latitude_longitude_only_estimates_the_horizontal_wind(noisy_campaign):
+    """A record with GPS latitude and longitude but no GPS altitude or velocities (the
+    19 s sum-of-sines maneuver; a straight 11 s 3211 leaves the along-track wind and the
+    airspeed bias apart by metres per second, with or without GPS altitude)."""
+    wind = (5.0, -8.0, 0.0)
+    one = _with_wind(noisy_campaign[noisy_campaign["maneuver"] == 0], wind)
+    rec = reconstruct(one.drop(columns=["z_gps", "vn_gps", "ve_gps", "vd_gps"]))
+    held = rec.maneuvers[0]["held"]
+    assert "vertical GPS" in held["wind_d"] and "wind_n" not in held
+    d = rec.data
+    err = d[["wind_n", "wind_e"]].to_numpy() - wind[:2]
+    assert np.sqrt(np.mean(np.sum(err ** 2, axis=1))) < 0.5                  # m/s
+    assert np.abs(d["wind_d"]).max() < 1e-9                                  # held at zero
+
+
+def test_rates_averaged_over_the_step_at_10_hz(noisy_campaign):
+    """At 10 Hz the rate at the start of a step leaves attitude errors; the step mean not."""
+    one = noisy_campaign[noisy_campaign["maneuver"] == 0]
+    coarse = one[np.round(one["t"] * 100).astype(int) % 10 == 0]
+    err = {}
+    for how in ("euler", "auto"):
+        rec = reconstruct(coarse, settings=ReconstructionSettings(rate_integration=how))
+        d = rec.data
+        err[how] = _rms(d["theta"] - d["true_theta"]) + _rms(d["phi"] - d["true_phi"])
+    assert err["auto"] < 0.5 * err["euler"]
+    with pytest.raises(InputError, match="rate_integration"):
+        ReconstructionSettings(rate_integration="simpson")

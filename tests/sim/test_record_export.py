@@ -41,6 +41,10 @@ def test_files_units_and_missing_channels(record, global5000_ideal):
         assert k.sum() == len(m) and str(m["maneuver_type"].iloc[0]) == s["type"]
         assert np.allclose(aoa[k, 1], np.degrees(m["alpha"]), rtol=1e-7, atol=1e-9)
         assert np.allclose(an[k, 1], -m["az"] / G0, rtol=1e-7)
+    hp = _channel(record, "hp")[:, 1] * FT
+    ground = np.round(hp, 6) == np.round(hp[0], 6)
+    assert ground[:100].all() and hp[0] == pytest.approx(global5000_ideal["h"].min() - 300.0,
+                                                          abs=1e-3)  # below every maneuver
     fuel = _channel(record, "fuel_used")[:, 1]
     starts = [np.searchsorted(aoa[:, 0], s - 1e-6) for s in spans["start"]]
     assert fuel[0] == 0.0 and np.all(np.diff(fuel[starts]) >= 0)  # fuel is burnt

@@ -64,11 +64,12 @@ def _air_data(mach, true_tas, true_mach, true_rho):
     return cas_from_mach(mach, pressure), temp
 
 
-def _ground(first: dict, n: int) -> dict:
-    """``n`` samples taxiing at 8 m/s, 300 m below the first maneuver, wings level."""
+def _ground(first: dict, n: int, lowest_m: float) -> dict:
+    """``n`` samples taxiing at 8 m/s, 300 m below the lowest altitude of the flight
+    ``lowest_m`` (an airfield below every maneuver), wings level."""
     g = {c: np.full(n, v[0]) for c, v in first.items()}
     a_sound = first["true_tas"][0] / first["true_mach"][0]
-    h_field = max(0.0, float(first["h"][0]) - 300.0)
+    h_field = max(0.0, lowest_m - 300.0)
     for prefix in ("", "true_"):
         for c, v in (("tas", 8.0), ("mach", 8.0 / a_sound), ("h", h_field), ("alpha", 0.0),
                      ("p", 0.0), ("q", 0.0), ("r", 0.0), ("phi", 0.0), ("theta", 0.0),
@@ -94,7 +95,8 @@ def _joined(df, rate_hz: float, transition_s: float, ground_s: float):
     n_ground = int(round(ground_s * rate_hz))
     if n_ground:
         first = {c: groups[0][c].to_numpy(dtype=float) for c in names}
-        ground = _ground(first, n_ground)
+        lowest = min(float(np.nanmin(g["h"].to_numpy(dtype=float))) for g in groups)
+        ground = _ground(first, n_ground, lowest)
         blocks.append(ground)
         blocks.append({c: ground[c][-1] + (first[c][0] - ground[c][-1]) * w for c in names})
         start += n_ground + n_blend
@@ -193,7 +195,7 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
     transition_s : float
         Length of the smooth transition flown between two maneuvers [s] (not a maneuver).
     ground_s : float
-        Length of the ground segment (taxiing at 8 m/s, 300 m below the first maneuver)
+        Length of the ground segment (taxiing at 8 m/s, 300 m below the lowest maneuver)
         that starts the record, as a real flight does [s]; 0 for none.
 
     Returns

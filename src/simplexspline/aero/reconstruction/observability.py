@@ -19,13 +19,23 @@ filter's own variance reduction is checked afterwards by :func:`variance_reducti
   the lateral velocity is a dead-reckoning integral of a biased ``ay``. Either way the
   filter keeps the kinematic dynamics and assumes a zero mean over the maneuver (a
   pseudo-measurement beta = 0 with a wide sigma, ``beta_pseudo_std``: maneuvers start from
-  trimmed, near-symmetric flight); without GPS the models in beta (CY, Cl, Cn) are flagged.
-* **no heading**: with GPS velocities the heading follows from the GPS track, the air data
-  and the wind (well in turns, weakly in straight flight); without GPS it is not observable
-  and not needed (nothing else depends on it): it is not reconstructed (NaN).
+  trimmed, near-symmetric flight); without GPS the models in beta (CY, Cl, Cn) are flagged
+  and the lateral accelerometer bias is held at zero (estimated against the zero-mean
+  assumption it differed from maneuver to maneuver: CY's per-maneuver mean error reached
+  5.7 times its noise on a 10-maneuver real-like campaign).
+* **no heading**: with GPS the heading follows from the GPS track, the air data and the
+  wind in turns; in straight flight a heading error and a crosswind error give the same
+  data, so the driver starts heading and wind from the wind triangle
+  (:mod:`~simplexspline.aero.reconstruction.wind_triangle`) when the maneuver turns by at
+  least ``MIN_HEADING_CHANGE`` and otherwise flags the crosswind and heading as weak.
+  Without GPS it is not observable and not needed (nothing else depends on it): it is not
+  reconstructed (NaN).
 * **no accelerometers**: the body velocities become a random walk observed by the air data
   (and GPS); accelerometer biases are not estimated and the force coefficients are not
   computed (moment coefficients only).
+* **GPS latitude and longitude only** (no ``z_gps``, no ``vd_gps``): the horizontal wind is
+  estimated; the vertical wind is not observable (the Earth-relative vertical velocity is
+  not measured) and is held at zero.
 * **vane scale factors** are estimated only with GPS and when asked for.
 """
 
@@ -61,12 +71,15 @@ def channels_present(task: Mapping) -> dict:
     Returns
     -------
     dict of str to bool
-        ``gps_velocity``, ``gps_position`` (all three axes each), ``accelerometers``,
-        ``beta``, ``psi``, ``wind_given`` (``wind_*`` columns).
+        ``gps_velocity`` (all three axes), ``gps_position`` (north and east: a record of
+        latitude and longitude without GPS altitude counts), ``gps_vertical`` (``z_gps`` or
+        ``vd_gps``), ``accelerometers``, ``beta``, ``psi``, ``wind_given`` (``wind_*``
+        columns).
     """
     return {
         "gps_velocity": all(_has(task, c) for c in GPS_VELOCITY),
-        "gps_position": all(_has(task, c) for c in GPS_POSITION),
+        "gps_position": all(_has(task, c) for c in GPS_POSITION[:2]),
+        "gps_vertical": _has(task, "z_gps") or _has(task, "vd_gps"),
         "accelerometers": all(_has(task, c) for c in ACCELEROMETERS),
         "beta": _has(task, "beta"),
         "psi": _has(task, "psi"),
@@ -102,12 +115,18 @@ def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True) ->
         for s in _AIR_DATA_ERRORS:
             held[s] = why + ": held at zero (the sensor's calibration error stays in the data)"
         held["kalpha"] = held["kbeta"] = why + ": held at zero"
+    if gps and not present.get("gps_vertical", True):
+        held["wind_d"] = ("unobservable without a vertical GPS channel (z_gps or vd_gps): "
+                          "held at zero")
     if not estimate_vane_scale:
         held.setdefault("kalpha", "not requested (estimate_vane_scale=False)")
         held.setdefault("kbeta", "not requested (estimate_vane_scale=False)")
     if not present["beta"]:
         held["bbeta"] = "no sideslip vane"
         held["kbeta"] = "no sideslip vane"
+        if not gps and present["accelerometers"]:
+            held["bay"] = ("unobservable without GPS and sideslip vane (it trades against "
+                           "the sideslip): held at zero")
     if not present["accelerometers"]:
         for s in ("bax", "bay", "baz"):
             held[s] = "no accelerometers"

@@ -45,12 +45,17 @@ from simplexspline.aero.reconstruction.observability import (
 from simplexspline.aero.reconstruction.sensor_corrections import (
     estimate_lag, rotation_velocity, specific_force_at_cg, undo_lag,
 )
+from simplexspline.aero.reconstruction.wind_triangle import (
+    MIN_HEADING_CHANGE, WindTriangle, wind_triangle,
+)
 from simplexspline.aero.variables import DEG
 from simplexspline.errors import FlightDataError, InputError
 
 __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstruct_maneuver",
-           "innovation_statistics"]
+           "innovation_statistics", "significant_lags"]
 
+#: Largest sample interval [s] at which ``rate_integration='auto'`` uses the Euler step.
+_EULER_MAX_DT = 0.0101
 #: Constant air-data errors estimated for the whole campaign (``air_data_calibration``).
 CALIBRATION_STATES = ("btas", "balpha", "bbeta", "kalpha", "kbeta")
 #: Channels a maneuver cannot be reconstructed without (at least one valid sample each).
@@ -128,7 +133,19 @@ class ReconstructionSettings:
         1 sigma] (a random walk observed by the air data).
     estimate_lags : bool
         Estimate each air-data and attitude channel's time lag against the reconstruction
-        (a diagnostic in the summary; known lags go in metadata ``sensor_geometry``).
+        (known lags go in metadata ``sensor_geometry.lag_s`` and are undone first).
+    apply_estimated_lags : bool
+        When a channel lags significantly (beyond 3 sigma and half a sample or 0.02 s, in
+        most maneuvers), undo the median estimated lag (on top of any given one) and
+        reconstruct again, at most 3 times while a significant lag remains
+        (``Reconstruction.lags_applied``). Needs ``estimate_lags``.
+    rate_integration : {'auto', 'euler', 'trapezoid'}
+        How the body rates drive the attitude over one step: 'euler', the rate at the start
+        of the step (what JSBSim does at its 100 Hz step, so exact for the simulator's
+        full-rate data); 'trapezoid', the mean of the step's two samples (a record sampled
+        at 10-20 Hz from an aircraft that moves continuously: at 10 Hz the Euler step leaves
+        attitude errors of 0.5 dt^2 |omega dot|, several times the attitude noise);
+        'auto' (default): 'euler' up to 0.01 s sample interval, else 'trapezoid'.
     air_data_calibration : {'campaign', 'maneuver'}
         With GPS, a constant wind and constant air-data errors (airspeed bias, vane offsets
         and scale factors) can be told apart only through heading changes, so one maneuver
@@ -161,6 +178,8 @@ class ReconstructionSettings:
     beta_pseudo_std: float = 0.05
     velocity_random_walk: float = 5.0
     estimate_lags: bool = True
+    apply_estimated_lags: bool = True
+    rate_integration: str = "auto"
     air_data_calibration: str = "campaign"
     calibration_maneuvers: int = 20
 
@@ -190,6 +209,8 @@ class ReconstructionSettings:
         if int(self.calibration_maneuvers) != self.calibration_maneuvers or \
                 self.calibration_maneuvers < 1:
             raise InputError("calibration_maneuvers must be a positive integer")
+        if self.rate_integration not in ("auto", "euler", "trapezoid"):
+            raise InputError("rate_integration must be 'auto', 'euler' or 'trapezoid'")
         if self.air_data_calibration not in ("campaign", "maneuver"):
             raise InputError("air_data_calibration must be 'campaign' or 'maneuver'")
         if self.accelerations not in ("auto", "measured", "differentiate"):
@@ -317,9 +338,13 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         if np.any(imu != 0) or np.ndim(cg) == 2:
             acc = specific_force_at_cg(acc, rates, dt, imu - cg)
         u[:, :3] = acc
-        # trapezoidal specific force over each step (JSBSim's translational integration);
-        # the body rates enter at the start of the step (explicit Euler, as JSBSim)
+        # trapezoidal specific force over each step (JSBSim's translational integration)
         u[:-1, :3] = 0.5 * (acc[:-1] + acc[1:])
+    # the body rates enter at the start of the step (explicit Euler, as JSBSim at 100 Hz),
+    # or as the mean over the step for data sampled coarser than the aircraft moves
+    if s["rate_integration"] == "trapezoid" or (s["rate_integration"] == "auto"
+                                                and dt > _EULER_MAX_DT):
+        u[:-1, 3:] = 0.5 * (rates[:-1] + rates[1:])
     arm = np.hstack([rotation_velocity(rates, np.asarray(geo.get(k, (0.0, 0.0, 0.0)),
                                                          dtype=float) - cg)
                      for k in ("alpha_vane_position_m", "beta_vane_position_m")])
@@ -359,7 +384,18 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         q_model[STATE_NAMES.index(name)] = 0.0
     noise = FilterNoise(input_std=np.array([s["input_noise"][c] for c in INPUT_NAMES]),
                         process_var=q_model, measurement_std=meas_std)
-    initial = initial_state(z, s["prior"], present=present, held=plan["held"], task=task)
+    triangle = None
+    if not present["psi"] and "wind_n" not in plan["held"]:
+        triangle = _wind_triangle(z, rates, dt, present)
+        turn = f"{math.degrees(MIN_HEADING_CHANGE):.0f} deg"
+        if triangle is not None and triangle.heading_change < MIN_HEADING_CHANGE:
+            plan["wind"] += (f"; crosswind and heading WEAK: no heading channel and the "
+                             f"heading changes by less than {turn}")
+        elif triangle is not None:
+            plan["psi"] = (f"estimated from the GPS track and the wind triangle (no heading "
+                           f"channel; the maneuver turns by {turn} or more)")
+    initial = initial_state(z, s["prior"], present=present, held=plan["held"], task=task,
+                            triangle=triangle)
     for k, (value, _) in calibration.items():
         initial.x[STATE_NAMES.index(k)] = value     # held there (variance at the floor)
     if s.get("calibration_pass"):
@@ -483,6 +519,23 @@ def _corrected(task: Mapping, geo: Mapping, dt: float) -> dict:
     return task
 
 
+def _wind_triangle(z: np.ndarray, rates: np.ndarray, dt: float,
+                   present: Mapping) -> WindTriangle | None:
+    """The wind triangle of one maneuver from its GPS positions, else integrated GPS
+    velocities (:func:`~simplexspline.aero.reconstruction.wind_triangle.wind_triangle`)."""
+    col = {c: z[:, j] for j, c in enumerate(MEASUREMENT_NAMES)}
+    if present["gps_position"]:
+        north, east = col["x_gps"], col["y_gps"]
+    else:                                   # integrated velocities, gaps interpolated
+        k = np.arange(z.shape[0])
+        ok = np.isfinite(col["vn_gps"]) & np.isfinite(col["ve_gps"])
+        north = np.cumsum(np.interp(k, k[ok], col["vn_gps"][ok])) * dt
+        east = np.cumsum(np.interp(k, k[ok], col["ve_gps"][ok])) * dt
+    return wind_triangle(dt, col["tas"], col["alpha"],
+                         col["beta"] if present["beta"] else None, col["phi"], col["theta"],
+                         rates[:, 1], rates[:, 2], north, east)
+
+
 def _gps_track(z: np.ndarray) -> float:
     """Ground track [rad] at the start: GPS velocity, else the first ~2 s of positions."""
     jn, je = MEASUREMENT_NAMES.index("vn_gps"), MEASUREMENT_NAMES.index("ve_gps")
@@ -504,7 +557,8 @@ def _first_valid(z: np.ndarray, j: int) -> float:
 
 
 def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = None,
-                  held: Mapping | None = None, task: Mapping | None = None) -> StateEstimate:
+                  held: Mapping | None = None, task: Mapping | None = None,
+                  triangle: WindTriangle | None = None) -> StateEstimate:
     """Initial state from the first valid air-data, attitude and GPS samples.
 
     Parameters
@@ -520,12 +574,18 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
         States held at their prior (their standard deviation is set to 1e-8).
     task : mapping, optional
         The maneuver's columns (for given ``wind_*``).
+    triangle : WindTriangle, optional
+        Without a heading channel: the maneuver's wind triangle. When its heading change
+        reaches :data:`~simplexspline.aero.reconstruction.wind_triangle.MIN_HEADING_CHANGE`,
+        the heading and the wind start at its solution; otherwise the heading starts at the
+        GPS track.
 
     Returns
     -------
     StateEstimate
-        Biases start at zero, the wind at zero or the mean of the given ``wind_*``
-        columns; the covariance is diagonal.
+        Biases start at zero; the wind at zero, the mean of the given ``wind_*`` columns or
+        the wind triangle's; the body velocity is the air data's plus the initial wind.
+        The covariance is diagonal.
     """
     m = {c: _first_valid(z, j) for j, c in enumerate(MEASUREMENT_NAMES)}
     held = {} if held is None else held
@@ -538,13 +598,21 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
     psi, psi_sd = m["psi"], prior["attitude"]
     if not math.isfinite(psi):
         track = _gps_track(z)
-        if math.isfinite(track):
+        if triangle is not None and triangle.heading_change >= MIN_HEADING_CHANGE:
+            psi, psi_sd = triangle.psi0, prior["heading"]
+            x0[18:20] = [triangle.wind_n, triangle.wind_e]
+        elif math.isfinite(track):
             psi, psi_sd = track, prior["heading"]
         else:
             psi, psi_sd = 0.0, 1e-8      # not observable and not needed
     x0[6:9] = [m["phi"], m["theta"], psi]
     if task is not None and all(c in task for c in WIND_STATES):
         x0[18:21] = [float(np.nanmean(task[c])) for c in WIND_STATES]
+    # Earth-relative body velocity = air-relative + C_bn W (_air_velocity of a state at
+    # rest is -C_bn W)
+    at_rest = x0.copy()
+    at_rest[3:6] = 0.0
+    x0[3:6] -= _air_velocity(at_rest[None, :])[0]
     sd = np.empty(NX)
     sd[0:3] = prior["position"]
     sd[3:6] = prior["velocity"]
@@ -566,6 +634,40 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
 
 
 # ----------------------------------------------------------------------------- campaign
+
+#: Lags [s] above this (and 3 sigma) count even when below half a sample.
+MIN_LAG_S = 0.02
+
+
+def significant_lags(per_maneuver: list, dt: float | None) -> dict:
+    """Channels that lag the reconstruction in most maneuvers, with their median lag.
+
+    Parameters
+    ----------
+    per_maneuver : list of dict
+        Per maneuver, channel -> (lag, sigma) [s] (the ``lags`` of a maneuver's result).
+    dt : float or None
+        Sample interval [s]; a lag must exceed 3 sigma and the smaller of half a sample and
+        :data:`MIN_LAG_S` to count (at 10 Hz a 0.05 s airspeed and vane lag biased the
+        airspeed calibration by 2.5 m/s on a real-like record: half a sample is too coarse
+        a limit there).
+
+    Returns
+    -------
+    dict of str to float
+        Channel -> median lag [s] over the maneuvers where it is significant, for the
+        channels significant in more than half of the maneuvers.
+    """
+    lags: dict = {}
+    for r in per_maneuver:
+        for ch, (lag, sd) in r.items():
+            if abs(lag) > 3 * sd and abs(lag) > (MIN_LAG_S if dt is None
+                                                 else min(dt / 2, MIN_LAG_S)):
+                lags.setdefault(ch, []).append(lag)
+    return {ch: float(np.median(v)) for ch, v in lags.items()
+            if len(v) > len(per_maneuver) / 2}
+
+
 
 @dataclass
 class Reconstruction:
@@ -594,6 +696,9 @@ class Reconstruction:
     settings : ReconstructionSettings
     thrust : {'columns', 'model', 'included'}
         Where the subtracted thrust came from; 'included': none subtracted (in CX).
+    lags_applied : dict of str to float
+        Channel -> lag [s] undone before the filter (given in metadata plus estimated, see
+        ``ReconstructionSettings.apply_estimated_lags``).
     """
 
     data: object
@@ -604,6 +709,7 @@ class Reconstruction:
     unused_channels: list
     settings: ReconstructionSettings
     thrust: str = "columns"
+    lags_applied: dict = field(default_factory=dict)
 
     def sensors(self) -> dict:
         """What the reconstruction gave for each missing or estimated quantity.
@@ -615,7 +721,7 @@ class Reconstruction:
             ``held``: state -> reason (held at its prior, not estimated: unobservable or
             no sensor); ``weakly_observed``: states whose final sigma exceeds half their
             prior in most maneuvers; ``lags_s``: channel -> median estimated lag [s] over
-            the maneuvers where it is significant (more than 3 sigma and half a sample);
+            the maneuvers where it is significant (:func:`significant_lags`);
             ``thrust``, ``angular_accelerations``; ``flags``: coefficient -> why its data
             are incomplete or its inputs unreliable.
         """
@@ -637,17 +743,11 @@ class Reconstruction:
             for k in r["weak"]:
                 weak[k] = weak.get(k, 0) + 1
         out["weakly_observed"] = sorted(k for k, c in weak.items() if c > len(ms) / 2)
-        lags: dict = {}
         dt = None
         if len(self.data) > 1:
             tt = self.data["t"].to_numpy(dtype=float)
             dt = float(np.median(np.abs(np.diff(tt))))
-        for r in ms:
-            for ch, (lag, sd) in r["lags"].items():
-                if abs(lag) > 3 * sd and (dt is None or abs(lag) > dt / 2):
-                    lags.setdefault(ch, []).append(lag)
-        out["lags_s"] = {ch: float(np.median(v)) for ch, v in lags.items()
-                         if len(v) > len(ms) / 2}
+        out["lags_s"] = significant_lags([r["lags"] for r in ms], dt)
         out["thrust"] = {"columns": "subtracted (thrust_* columns)",
                          "model": "subtracted (thrust model)",
                          "included": "INCLUDED in CX (no thrust columns, no thrust model), "
@@ -663,6 +763,11 @@ class Reconstruction:
                                     "in beta unreliable")
         if self.thrust == "included":
             flags.setdefault("CX", "includes thrust")
+        if str(held.get("tas", "")).startswith("unobservable"):
+            flags["all"] = ("airspeed bias unobservable (no GPS) and held at zero: a bias b "
+                            "in V scales every coefficient by about 1 - 2 b / V (0.5 % per "
+                            "0.5 m/s at 200 m/s), alike in all maneuvers; give a known "
+                            "airspeed calibration or GPS")
         out["flags"] = flags
         return out
 
@@ -708,6 +813,9 @@ class Reconstruction:
             if sens["weakly_observed"]:
                 lines.append(f"  weakly observed (sigma > half the prior in most maneuvers): "
                              f"{sens['weakly_observed']}")
+            for ch, lag in self.lags_applied.items():
+                lines.append(f"  {ch}: lag {lag:.3g} s undone before the filter (given and "
+                             "estimated)")
             for ch, lag in sens["lags_s"].items():
                 lines.append(f"  {ch}: lags the reconstruction by {lag:.3g} s (median): set "
                              f"metadata sensor_geometry.lag_s.{ch}")
@@ -798,11 +906,19 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     A state no maneuver estimates (no GPS anywhere, no vane), or whose combined sigma is
     above half its prior (the campaign barely observes it), is left out: the second pass
     then holds it at zero when the maneuver has no GPS, or estimates it per maneuver.
+    Without a heading channel only maneuvers that turn by at least
+    :data:`~simplexspline.aero.reconstruction.wind_triangle.MIN_HEADING_CHANGE` are used
+    when there are any.
     """
     gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
     if not gps:
         return {}
     gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
+    # without a heading channel a straight maneuver trades its heading against a crosswind
+    # and the air-data errors with them (wind_triangle): calibrate on the turns if any
+    turning = [t for t in gps if heading_excursion(t) >= MIN_HEADING_CHANGE]
+    if turning and not all(channels_present(t)["psi"] for t in gps):
+        gps = turning
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
     results = _run_all(gps, s, workers, progress)
     out = {}
@@ -816,6 +932,24 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
             continue              # the campaign does not observe it: left at its prior
         out[k] = (float(sum(v / sd ** 2 for v, sd, _ in est) / w), float(w ** -0.5))
     return out
+
+
+#: Most reconstructions with estimated lags undone: the smoothed states partly follow a
+#: late channel, so one estimate finds about 85 % of a lag (0.068 of 0.08 s at 100 Hz);
+#: each further pass finds most of the rest, until none is significant (significant_lags).
+_LAG_PASSES = 3
+
+
+def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: int,
+            progress: bool) -> tuple[list, dict, list]:
+    """The maneuvers' tasks, the campaign calibration and the per-maneuver results."""
+    tasks = _tasks(df, geometry)
+    calibration = {}
+    if settings.air_data_calibration == "campaign":
+        calibration = _campaign_calibration(tasks, settings, workers, progress)
+        for task in tasks:
+            task["calibration"] = calibration
+    return tasks, calibration, _run_all(tasks, settings.to_dict(), workers, progress)
 
 
 def reconstruct(df, metadata: Mapping | None = None, *,
@@ -865,13 +999,22 @@ def reconstruct(df, metadata: Mapping | None = None, *,
             os.cpu_count() or 1)
     if int(workers) != workers or workers < 1:
         raise InputError(f"workers must be a positive integer, got {workers!r}")
-    tasks = _tasks(df, _geometry(meta))
-    calibration = {}
-    if settings.air_data_calibration == "campaign":
-        calibration = _campaign_calibration(tasks, settings, int(workers), progress)
-        for task in tasks:
-            task["calibration"] = calibration
-    results = _run_all(tasks, settings.to_dict(), int(workers), progress)
+    geometry = _geometry(meta)
+    tasks, calibration, results = _passes(df, geometry, settings, int(workers), progress)
+    lags_applied = {ch: float(v) for ch, v in geometry["lag_s"].items() if v}
+    t = df["t"].to_numpy(dtype=float)
+    dt = float(np.median(np.abs(np.diff(t)))) if t.size > 1 else None
+    for _ in range(_LAG_PASSES if settings.estimate_lags and settings.apply_estimated_lags
+                   else 0):
+        found = significant_lags([r["lags"] for r in results if r["ok"]], dt)
+        # undo the estimated lag on top of the one undone (a channel cannot lead)
+        total = {ch: lags_applied.get(ch, 0.0) + lag for ch, lag in found.items()}
+        total = {ch: v for ch, v in total.items() if 0.0 < v <= 2.0}
+        if not total:
+            break
+        lags_applied.update(total)
+        geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
+        tasks, calibration, results = _passes(df, geometry, settings, int(workers), progress)
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
         m = task["maneuver"]
@@ -910,7 +1053,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     rec = Reconstruction(data=out, maneuvers=accepted, rejected=rejected,
                          thrust_subtracted=thrust,
                          accelerations="measured" if measured_acc else "differentiated",
-                         unused_channels=unused, settings=settings, thrust=thrust_source)
+                         unused_channels=unused, settings=settings, thrust=thrust_source,
+                         lags_applied=lags_applied)
     sensors = rec.sensors()
     meta["reconstruction"] = jsonable({
         "method": "iterated extended Kalman filter + RTS smoother (docs/reconstruction.md)",
@@ -918,7 +1062,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         "thrust_subtracted": thrust, "thrust": thrust_source,
         "accelerations": rec.accelerations,
         "unused_channels": unused, "sensors": sensors,
-        "sensor_geometry_given": _geometry(meta)["given"],
+        "sensor_geometry_given": geometry["given"],
+        "lags_applied_s": lags_applied,
         "air_data_calibration": calibration,
         "maneuvers": {m: {k: r[k] for k in ("biases", "iterations", "innovations", "skipped",
                                             "held", "weak", "observability", "lags")}

@@ -1,0 +1,198 @@
+"""Import -> reconstruct -> identify on a simulated real-like record (issue 16).
+
+Simulates an f16 campaign with the sensors of a real installation
+(:meth:`SensorModel.real_like`: noise and biases, vanes on a nose boom with scale and offset
+errors, an IMU lever arm, channel lags) in a steady wind per maneuver plus JSBSim's
+turbulence, writes it as a real-format record (:func:`write_channel_record`: one text file
+per channel at 10 Hz in aviation units, no sideslip vane, an empty heading channel, GPS
+latitude and longitude only, indicated airspeed, the normal load factor, fuel used), adds
+the installation to the mapping file (``[metadata] sensor_geometry``: vane positions and
+calibrations, IMU position; *not* the lags, which the reconstruction estimates), imports
+it with :func:`import_record`, reconstructs and identifies with default settings, and
+prints Markdown tables:
+
+1. reconstructed alpha, beta and V: RMS error against the truth next to the raw sensor's
+   error (noise, bias, geometry, lag), and the lags estimated and undone;
+2. the estimated wind per maneuver against the truth (the steady part and the turbulence:
+   ``true_wind_*`` is JSBSim's total wind), with the maneuver's heading change;
+3. per coefficient: RMS of the reconstructed coefficient against the truth, ``b/n`` (the
+   largest per-maneuver mean error over the within-maneuver standard deviation of the
+   error), and after identification the validation model's RMS against the truth over the
+   noise (``true/noise``) and R2.
+
+Usage::
+
+    python benchmarks/bench_real_like.py                       # 12 maneuvers, seed 11
+    python benchmarks/bench_real_like.py --maneuvers 6 --turbulence light --no-identify
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from simplexspline.aero import identify, import_record, reconstruct
+from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
+from simplexspline.sim.record_export import write_channel_record
+from simplexspline.sim.wind import Wind
+
+COEF = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
+TRUTH = ("alpha", "beta", "tas", "psi", "wind_n", "wind_e", "wind_d", *COEF)
+
+
+def _rms(x) -> float:
+    return float(np.sqrt(np.nanmean(np.square(np.asarray(x, dtype=float)))))
+
+
+def _toml_vector(v) -> str:
+    return "[" + ", ".join(f"{float(x):.6g}" for x in v) + "]"
+
+
+def installation(sensors: SensorModel) -> str:
+    """``[metadata.sensor_geometry]`` of the sensors' installation, without the lags."""
+    lines = []
+    for vane in ("alpha_vane", "beta_vane"):
+        g = getattr(sensors, vane)
+        lines += [f"[metadata.sensor_geometry.{vane}]",
+                  f"position_m = {_toml_vector(g['position_m'])}",
+                  f"scale = {float(g['scale']):.6g}",
+                  f"offset_rad = {float(g['offset_rad']):.6g}", ""]
+    lines += ["[metadata.sensor_geometry.imu]",
+              f"position_m = {_toml_vector(sensors.imu_position_m)}", ""]
+    return "\n".join(lines)
+
+
+def with_truth(data: pd.DataFrame, truth_csv: Path) -> pd.DataFrame:
+    """The imported table with ``true_*`` columns from the record's truth file (by time)."""
+    truth = pd.read_csv(truth_csv)
+    key = np.round(truth["t_record"].to_numpy() * 100).astype(np.int64)
+    pos = pd.Series(np.arange(len(truth)), index=key)
+    rows = pos.reindex(np.round(data["t_record"].to_numpy() * 100).astype(np.int64))
+    if rows.isna().any():
+        raise RuntimeError("imported samples without a truth sample at the same time")
+    out = data.copy()
+    for c in TRUTH:
+        if c in truth:
+            out["true_" + c] = truth[c].to_numpy()[rows.to_numpy(dtype=np.int64)]
+    out.attrs = data.attrs
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--maneuvers", type=int, default=12)
+    ap.add_argument("--seed", type=int, default=11)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--turbulence", default="none",
+                    help="none (default), light, moderate, severe: the filter's wind is "
+                         "constant per maneuver; see docs/reconstruction.md for turbulence")
+    ap.add_argument("--turn-fraction", type=float, default=1.0,
+                    help="fraction of the sum-of-sines maneuvers flown in a turn (1.0)")
+    ap.add_argument("--no-identify", action="store_true", help="stop after the reconstruction")
+    ap.add_argument("--keep", type=Path, default=None,
+                    help="write the record into this new directory and keep it")
+    args = ap.parse_args()
+    warnings.simplefilter("ignore")
+    sensors = SensorModel.real_like()
+    t0 = time.perf_counter()
+    df = Campaign("f16", maneuvers=args.maneuvers, seed=args.seed, sensors=sensors,
+                  wind=Wind((5.0, 12.0), args.turbulence),
+                  grid=ConditionGrid(altitudes_m=[3000.0, 7000.0],
+                                     airspeeds_mps=[160.0, 220.0]),
+                  protocol=FlightProtocol(mix={"3211": 2, "doublet": 1, "sum-of-sines": 2},
+                                          sos_duration_s=(30.0, 40.0),
+                                          turn_fraction=args.turn_fraction)).run(
+        workers=args.workers, progress=False)
+    t_sim = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory() as tmp:
+        record = write_channel_record(df, args.keep or Path(tmp) / "record", rate_hz=10.0)
+        mapping = record / "mapping.toml"
+        mapping.write_text(mapping.read_text() + "\n" + installation(sensors))
+        t0 = time.perf_counter()
+        imported = import_record(mapping)
+        t_import = time.perf_counter() - t0
+        data = with_truth(imported.data, record / "truth.csv")
+    print(f"campaign: f16, {args.maneuvers} maneuvers, seed {args.seed}, "
+          f"SensorModel.real_like(), wind 5-12 m/s + {args.turbulence} turbulence "
+          f"({t_sim:.0f} s); record at 10 Hz, imported: {data['maneuver'].nunique()} "
+          f"maneuvers, {len(data):,} samples ({t_import:.1f} s); channels missing: "
+          f"{', '.join(c for c in ('beta', 'psi', 'vn_gps') if c not in data)}\n")
+
+    t0 = time.perf_counter()
+    rec = reconstruct(data, workers=args.workers)
+    t_rec = time.perf_counter() - t0
+    d = rec.data
+    print(f"reconstruct: {len(rec.maneuvers)} maneuvers, rejected {len(rec.rejected)}, "
+          f"{t_rec:.0f} s; lags undone: "
+          + (", ".join(f"{c} {v:.3f} s" for c, v in rec.lags_applied.items()) or "none")
+          + " (simulated: " + ", ".join(f"{c} {v:g} s" for c, v in sensors.lag_s.items() if v)
+          + ")\n")
+    print("| quantity | raw sensor RMS error | reconstructed RMS error |")
+    print("|---|---|---|")
+    for c, unit in (("alpha", "rad"), ("beta", "rad"), ("tas", "m/s")):
+        raw = _rms(data[c] - data["true_" + c]) if c in data else float("nan")
+        raw_cell = "no sensor" if c not in data else f"{raw:.2e} {unit}"
+        print(f"| {c} | {raw_cell} | {_rms(d[c] - d['true_' + c]):.2e} {unit} |")
+
+    print("\n| maneuver | type | heading change [deg] | wind [m/s] | horizontal wind "
+          "error [m/s] | vertical [m/s] | reported sigma n, e [m/s] | wind statement |")
+    print("|---|---|---|---|---|---|---|---|")
+    errs = {}
+    for m, g in d.groupby("maneuver"):
+        e = (g[["wind_n", "wind_e", "wind_d"]].to_numpy()
+             - g[["true_wind_n", "true_wind_e", "true_wind_d"]].to_numpy())
+        h = _rms(np.hypot(e[:, 0], e[:, 1]))
+        errs[m] = h
+        obs = rec.maneuvers[m]["observability"]["wind"]
+        turn = math.degrees(np.ptp(np.unwrap(g["true_psi"].to_numpy())))
+        sig = rec.maneuvers[m]["biases"]
+        print(f"| {m} | {g['maneuver_type'].iloc[0]} | {turn:.0f} | "
+              f"{math.hypot(g['true_wind_n'].mean(), g['true_wind_e'].mean()):.1f} | "
+              f"{h:.2f} | {_rms(e[:, 2]):.2f} | "
+              f"{sig['wind_n'][1]:.2f}, {sig['wind_e'][1]:.2f} | "
+              f"{'WEAK' if 'WEAK' in obs else 'estimated'} |")
+    weak = [m for m in errs if "WEAK" in rec.maneuvers[m]["observability"]["wind"]]
+    ok = [m for m in errs if m not in weak]
+    for label, ms in (("turning (estimated)", ok), ("straight (WEAK)", weak)):
+        if ms:
+            print(f"\nhorizontal wind error, {label}: median {np.median([errs[m] for m in ms]):.2f}"
+                  f" m/s, max {max(errs[m] for m in ms):.2f} m/s over {len(ms)} maneuvers")
+
+    print("\n| coefficient | reconstructed RMS vs truth | b/n | identified: RMS vs truth | "
+          "noise RMS | true/noise | R2 |")
+    print("|---|---|---|---|---|---|---|")
+    ident = {}
+    t_id = float("nan")
+    if not args.no_identify:
+        t0 = time.perf_counter()
+        result = identify(data)
+        t_id = time.perf_counter() - t0
+        ident = result.summary()["coefficients"]
+    for c in COEF:
+        if c == "CX" and not rec.thrust_subtracted:
+            print("| CX | includes thrust (no thrust channel): not comparable | | | | | |")
+            continue
+        e = d[c] - d["true_" + c]
+        if e.isna().all():
+            print(f"| {c} | n/a | | | | | |")
+            continue
+        grp = e.groupby(d["maneuver"])
+        bn = float(np.max(np.abs(grp.mean())) / np.sqrt(np.mean(grp.var())))
+        i = ident.get(c, {})
+        fmt = (lambda k, s: "-" if i.get(k) is None else format(i[k], s))
+        print(f"| {c} | {_rms(e):.2e} | {bn:.1f} | {fmt('rms_true', '.2e')} | "
+              f"{fmt('noise_rms', '.2e')} | {fmt('rms_true_over_noise', '.2f')} | "
+              f"{fmt('r2', '.3f')} |")
+    print(f"\nseconds: simulate {t_sim:.0f}, import {t_import:.1f}, reconstruct {t_rec:.0f}, "
+          f"identify {t_id:.0f}")
+
+
+if __name__ == "__main__":
+    main()
