@@ -143,3 +143,13 @@ def test_the_search_selects_what_fresh_accumulations_select(data, monkeypatch):
     b = np.array([t.score for t in history2])
     assert np.allclose(a, b, rtol=1e-8, atol=0)
     assert len(history) > 10
+
+
+def test_memory_is_bounded(data):
+    eq = FoldEquations(data["y"], data["folds"], max_bytes=1)
+    base = Structure("CX", ("alpha", "mach"), 3, 1, (2, 1), ("1", "qhat", "de"))
+    for res in ((2, 1), (3, 1), (2, 2)):
+        _check(eq, base.with_(resolution=res), data, 10)
+        assert len(eq._entries) == 1 and eq.nbytes > 0     # only the last one is kept
+    _check(eq, base.with_(resolution=(2, 1)), data, 10)     # dropped: computed again
+    assert (eq.hits, eq.misses) == (0, 4)

@@ -335,6 +335,17 @@ class TermGrams:
     def __len__(self) -> int:
         return len(self.order)
 
+    @property
+    def nbytes(self) -> int:
+        """Memory taken by the located basis values, the columns and the kept blocks."""
+        seen, size = set(), self._basis.nbytes + self.order.nbytes
+        for arr in (*self._pairs.values(), *self._rhs.values(), *self._columns.values()):
+            base = arr.base if arr.base is not None else arr
+            if id(base) not in seen:
+                seen.add(id(base))
+                size += base.nbytes
+        return size
+
     def _add_terms(self, new: list) -> None:
         """Blocks of new terms ``[(key, column), ...]`` with themselves and with every
         known term: one product per simplex."""

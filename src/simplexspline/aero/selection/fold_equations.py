@@ -72,10 +72,9 @@ class FoldEquations:
         The coefficient (the samples of the search).
     folds : ndarray of int, shape (N,)
         Fold per sample.
-    max_entries : int
-        Triangulation-and-degree entries kept (least recently used dropped first): bounds
-        the memory to about ``max_entries`` times the located basis values of the samples
-        and the blocks of the terms tried.
+    max_bytes : int
+        Memory the kept basis values and blocks may take; beyond it the least recently
+        used triangulations are dropped (default 96 MiB).
 
     Attributes
     ----------
@@ -84,14 +83,14 @@ class FoldEquations:
         their samples located and their basis values computed.
     """
 
-    def __init__(self, y: np.ndarray, folds: np.ndarray, max_entries: int = 24):
+    def __init__(self, y: np.ndarray, folds: np.ndarray, max_bytes: int = 96 << 20):
         self.y = np.asarray(y, dtype=float)
         self.folds = np.asarray(folds)
         if self.folds.shape != self.y.shape:
             raise InputError(f"folds must give one fold per sample ({self.y.shape}), got "
                              f"{self.folds.shape}")
         self.k = int(self.folds.max()) + 1
-        self.max_entries = int(max_entries)
+        self.max_bytes = int(max_bytes)
         self._entries: OrderedDict = OrderedDict()
         self.hits = 0
         self.misses = 0
@@ -120,8 +119,6 @@ class FoldEquations:
             self.misses += 1
             entry = {"triangulation": tri, "scheduling": u, "plain": {}, "grams": None}
             self._entries[key] = entry
-            while len(self._entries) > self.max_entries:
-                self._entries.popitem(last=False)
         else:
             self.hits += 1
             self._entries.move_to_end(key)
@@ -132,6 +129,7 @@ class FoldEquations:
                 entry["plain"]["parts"] = fold_equations(space, u, None, self.y,
                                                          self.folds, self.k)[1]
             parts = [p.copy() for p in entry["plain"]["parts"]]
+            self._trim()
             return _sum(parts), parts
         if entry["grams"] is None:
             sid = tri.locate(u)
@@ -145,4 +143,22 @@ class FoldEquations:
                  zip(structure.multipliers, scales, offsets)]
         parts = [grams.normal_equations([(key_, m[sel, i]) for i, key_ in enumerate(names)])
                  for sel, grams in entry["grams"]]
+        self._trim()
         return _sum(parts), parts
+
+    @property
+    def nbytes(self) -> int:
+        """Memory taken by the kept basis values and blocks."""
+        return sum(_entry_bytes(e) for e in self._entries.values())
+
+    def _trim(self) -> None:
+        """Drop the least recently used entries (never the last one) beyond max_bytes."""
+        while len(self._entries) > 1 and self.nbytes > self.max_bytes:
+            self._entries.popitem(last=False)
+
+
+def _entry_bytes(entry: dict) -> int:
+    size = sum(p.XtWX.nbytes + p.XtWy.nbytes for p in entry["plain"].get("parts", ()))
+    for _sel, grams in entry["grams"] or ():
+        size += grams.nbytes
+    return size
