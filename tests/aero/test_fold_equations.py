@@ -153,3 +153,20 @@ def test_memory_is_bounded(data):
         assert len(eq._entries) == 1 and eq.nbytes > 0     # only the last one is kept
     _check(eq, base.with_(resolution=(2, 1)), data, 10)     # dropped: computed again
     assert (eq.hits, eq.misses) == (0, 4)
+
+
+def test_a_search_cache_is_emptied_for_other_data_or_settings(data):
+    cache = SearchCache()
+    settings = SelectionSettings()
+    cache.bind(data["y"], data["folds"], None, settings)
+    cache.scores["x"] = (1.0, 1, 1)
+    cache.bind(data["y"], data["folds"], None, settings)
+    assert "x" in cache.scores                      # the same samples, folds, settings
+    for y, folds, scored, s in (
+            (data["y"] + 1.0, data["folds"], None, settings),
+            (data["y"], data["folds"], np.ones(len(data["y"]), bool), settings),
+            (data["y"], data["folds"], None, replace(settings, ridge=1e-6))):
+        cache.bind(data["y"], data["folds"], None, settings)
+        cache.scores["x"] = (1.0, 1, 1)
+        cache.bind(y, folds, scored, s)
+        assert not cache.scores and not cache.coarse

@@ -173,8 +173,8 @@ class Trial:
 @dataclass
 class SearchCache:
     """What the cross-validations of one coefficient's search share: they run on the same
-    (subsampled) samples, folds and scored samples, which the cache is bound to on first
-    use (bound to others, it starts afresh).
+    (subsampled) samples, folds and scored samples with the same settings, which the cache
+    is bound to on first use (bound to others, it starts afresh).
 
     Attributes
     ----------
@@ -190,12 +190,15 @@ class SearchCache:
     coarse: dict = field(default_factory=dict)
     scores: dict = field(default_factory=dict)
     _scored: np.ndarray | None = None
+    _settings: SelectionSettings | None = None
 
-    def bind(self, y: np.ndarray, folds: np.ndarray, scored) -> SearchCache:
-        """Use the cache for these samples, folds and scored mask (emptied when they are
-        not the ones it holds)."""
+    def bind(self, y: np.ndarray, folds: np.ndarray, scored,
+             settings: SelectionSettings) -> SearchCache:
+        """Use the cache for these samples, folds, scored mask and settings (emptied when
+        they are not the ones it holds)."""
         sc = None if scored is None else np.asarray(scored, dtype=bool)
         same = (self.equations is not None and self.equations.matches(y, folds)
+                and settings == self._settings
                 and (sc is None) == (self._scored is None)
                 and (sc is None or np.array_equal(sc, self._scored)))
         if not same:
@@ -203,6 +206,7 @@ class SearchCache:
             self.coarse.clear()
             self.scores.clear()
             self._scored = sc
+            self._settings = settings
         return self
 
 
@@ -455,7 +459,7 @@ def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
     if setup is None:
         return 3, {}
     cols, ys, folds, scored = setup
-    cache = (cache or SearchCache()).bind(ys, folds, scored)
+    cache = (cache or SearchCache()).bind(ys, folds, scored, settings)
     scores = {}
     with kernels.one_blas_thread():
         for d in PRIOR_DEGREES:
@@ -536,7 +540,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
     seen: dict = {}
     history: list = []
-    cache = (cache or SearchCache()).bind(ys, folds, scored)
+    cache = (cache or SearchCache()).bind(ys, folds, scored, settings)
 
     def score(s: Structure, rnd: int, move: str) -> float:
         key = s
