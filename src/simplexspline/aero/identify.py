@@ -31,6 +31,7 @@ from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.search import (
     SelectionSettings,
     Trial,
+    SearchCache,
     choose_prior_degree,
     fit_structure,
     select_structure,
@@ -621,11 +622,14 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         ident_w = ident[[k for k in ident.columns if k in keep]]
         valid_w = valid[[k for k in valid.columns if k in keep]]
         ctx = multiprocessing.get_context("spawn")
+        # the largest starting structures first: their searches take longest, and the
+        # short ones then fill the other workers (the results do not depend on the order)
+        order = sorted(coefs, key=lambda c: -structures[c].size())
         with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
                                  initializer=ignore_interrupts) as pool:
             futures = {pool.submit(_identify_in_worker, c, structures[c], ident_w, valid_w,
                                    columns, coverage, settings, has_truth, source): c
-                       for c in coefs}
+                       for c in order}
             for fut in as_completed(futures):
                 done(futures[fut], fut.result())
     else:
@@ -697,13 +701,14 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         warn.append(msg)
     start = _drop_zero_multipliers(start, columns, notes, warn)
     cells = coverage.ident_cells
+    cache = SearchCache()     # shared: the search starts where the prior's choice ended
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
                                                      settings.selection, seed=settings.seed,
-                                                     cells=cells)
+                                                     cells=cells, cache=cache)
     if settings.select:
         best, history = select_structure(start, columns, y, mans, settings.selection,
                                          seed=settings.seed, prior_degree=prior_degree,
-                                         cells=cells)
+                                         cells=cells, cache=cache)
     else:
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
     model = fit_structure(best, columns, y, settings.selection, prior_degree=prior_degree,

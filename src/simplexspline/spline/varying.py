@@ -46,8 +46,8 @@ from simplexspline.spline.inputs import as_points, as_values, as_weights
 from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.fit.penalty import solve_penalized
 
-__all__ = ["VaryingCoefficientSpace", "VaryingNormalEquations", "VaryingCoefficientSpline",
-           "constancy_conditions"]
+__all__ = ["TermGrams", "VaryingCoefficientSpace", "VaryingNormalEquations",
+           "VaryingCoefficientSpline", "constancy_conditions"]
 
 #: Points per chunk when accumulating (bounds the (K d_hat) x chunk temporary).
 CHUNK = 1 << 16
@@ -257,6 +257,164 @@ class VaryingNormalEquations(BlockSums):
 
     def _space_key(self) -> tuple:
         return self.triangulation, self.degree, self.nterms
+
+
+class TermGrams:
+    """Normal-equation blocks of varying-coefficient fits on one fixed sample, kept per
+    pair of terms: the normal equations of any set of terms are assembled from them.
+
+    The regression row of a point is ``kron(m, B(b))``, so block (k, l) of a simplex's
+    Gram matrix, ``sum_i w_i m_ik m_il B(b_i) B(b_i)'``, depends only on the terms k and
+    l. Fits that share the triangulation, the degree and the sample (the candidate
+    structures of a search that add, remove or keep multipliers) share these blocks: the
+    points are located and their basis values computed once, a new term costs one product
+    per simplex with the terms already known, and a set of known terms costs nothing but
+    copying. The result equals :meth:`VaryingNormalEquations.add` on the same data up to
+    round-off.
+
+    Parameters
+    ----------
+    triangulation : Triangulation
+    degree : int
+    z : array_like, shape (N, n)
+        Scheduling variables; all points must lie inside the triangulation.
+    y : array_like, shape (N,)
+    weights : array_like, shape (N,), optional
+
+    Raises
+    ------
+    OutsideDomainError
+        Points outside the triangulation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from simplexspline import Triangulation
+    >>> rng = np.random.default_rng(0)
+    >>> z, u = rng.random((500, 1)), rng.normal(size=500)
+    >>> grams = TermGrams(Triangulation.grid([0], [1], (2,)), 2, z, np.sin(z[:, 0]) + u)
+    >>> ne = grams.normal_equations([("1", np.ones(500)), ("u", u)])
+    >>> ref = VaryingNormalEquations(grams.triangulation, 2, 2).add(
+    ...     z, np.column_stack([np.ones(500), u]), np.sin(z[:, 0]) + u)
+    >>> bool(np.allclose(ne.XtWX, ref.XtWX, rtol=1e-12, atol=0))
+    True
+    """
+
+    def __init__(self, triangulation, degree: int, z, y, weights=None):
+        self.triangulation = triangulation
+        self.degree = int(degree)
+        pts = as_points(z, name="z", ndim=triangulation.ndim)
+        vals = as_values(y, len(pts))
+        w = as_weights(weights, len(pts))
+        sid = triangulation.locate(pts)
+        out = np.nonzero(sid < 0)[0]
+        if len(out):
+            raise OutsideDomainError(
+                f"{len(out)} of {len(pts)} points lie outside the triangulation (first rows: "
+                f"{out[:5].tolist()}); drop them or enlarge the triangulation", out)
+        #: Sample order sorted by simplex (stable), shape (N,).
+        self.order = np.argsort(sid, kind="stable")
+        sid_s = sid[self.order]
+        J = triangulation.nsimplex
+        self._basis = basis_values_t(
+            triangulation._locator_barycentric(pts[self.order], sid_s).T, self.degree)
+        self._w = None if w is None else w[self.order]
+        ys = vals[self.order]
+        self._wy = ys if self._w is None else self._w * ys
+        self.counts = np.bincount(sid, minlength=J)
+        self.wsum = self.counts.astype(float) if self._w is None else \
+            np.bincount(sid_s, weights=self._w, minlength=J)
+        self.ytWy = float(self._wy @ ys)
+        ends = np.cumsum(self.counts)
+        self._spans = [(int(j), int(ends[j] - self.counts[j]), int(ends[j]))
+                       for j in np.nonzero(self.counts)[0]]
+        self._pairs: dict = {}      # (key_k, key_l) -> (J, d_hat, d_hat)
+        self._rhs: dict = {}        # key -> (J, d_hat)
+        self._columns: dict = {}    # key -> the term's column in sorted order
+
+    def __len__(self) -> int:
+        return len(self.order)
+
+    @property
+    def nbytes(self) -> int:
+        """Memory taken by the located basis values, the columns and the kept blocks."""
+        seen, size = set(), self._basis.nbytes + self.order.nbytes
+        for arr in (*self._pairs.values(), *self._rhs.values(), *self._columns.values()):
+            base = arr.base if arr.base is not None else arr
+            if id(base) not in seen:
+                seen.add(id(base))
+                size += base.nbytes
+        return size
+
+    def _add_terms(self, new: list) -> None:
+        """Blocks of new terms ``[(key, column), ...]`` with themselves and with every
+        known term: one product per simplex."""
+        cols = []
+        for key, column in new:
+            col = np.asarray(column, dtype=float)
+            if col.shape != (len(self),) or not np.all(np.isfinite(col)):
+                raise InputError(f"term {key!r}: its column must hold {len(self)} finite "
+                                 f"values, got shape {col.shape}")
+            cols.append(col[self.order])
+        known = list(self._columns)
+        for (key, _), col in zip(new, cols):
+            self._columns[key] = col
+        keys = known + [k for k, _ in new]
+        allc = np.stack([self._columns[k] for k in keys])            # (K_all, N)
+        newc = np.stack(cols)                                         # (K_new, N)
+        B, dh = self._basis, self._basis.shape[0]
+        J, kn, ka = self.triangulation.nsimplex, len(cols), len(keys)
+        G = np.zeros((J, kn * dh, ka * dh))
+        rhs = np.zeros((J, kn * dh))
+        wnew = newc if self._w is None else newc * self._w
+        with kernels.one_blas_thread():
+            for j, a, b in self._spans:
+                Bj = B[:, a:b]
+                left = (wnew[:, None, a:b] * Bj[None]).reshape(kn * dh, b - a)
+                right = (allc[:, None, a:b] * Bj[None]).reshape(ka * dh, b - a)
+                G[j] = left @ right.T
+                rhs[j] = (newc[:, None, a:b] * Bj[None]).reshape(kn * dh, b - a) \
+                    @ self._wy[a:b]
+        for p, kp in enumerate(keys[len(known):]):
+            rows = slice(p * dh, (p + 1) * dh)
+            self._rhs[kp] = rhs[:, rows]
+            for q, kq in enumerate(keys):
+                blk = G[:, rows, q * dh:(q + 1) * dh]
+                self._pairs[kp, kq] = blk
+                if (kq, kp) not in self._pairs:
+                    self._pairs[kq, kp] = blk.transpose(0, 2, 1)
+
+    def normal_equations(self, terms) -> VaryingNormalEquations:
+        """The normal equations of a set of terms.
+
+        Parameters
+        ----------
+        terms : sequence of (hashable, array_like of shape (N,))
+            Per term, a key and its multiplier column in the order of the sample. The key
+            names the column: a key seen before reuses that term's blocks (its column is
+            not read again).
+
+        Returns
+        -------
+        VaryingNormalEquations
+            A new accumulator (it shares no memory with these blocks).
+        """
+        keys = [k for k, _ in terms]
+        if len(set(keys)) != len(keys):
+            raise InputError(f"repeated term keys {keys}")
+        new = [(k, col) for k, col in terms if k not in self._columns]
+        if new:
+            self._add_terms(new)
+        K, dh = len(keys), self._basis.shape[0]
+        ne = VaryingNormalEquations(self.triangulation, self.degree, K)
+        for p, kp in enumerate(keys):
+            ne.XtWy[:, p * dh:(p + 1) * dh] = self._rhs[kp]
+            for q, kq in enumerate(keys):
+                ne.XtWX[:, p * dh:(p + 1) * dh, q * dh:(q + 1) * dh] = self._pairs[kp, kq]
+        ne.ytWy = self.ytWy
+        ne.wsum = self.wsum.copy()
+        ne.counts = self.counts.copy()
+        return ne
 
 
 class VaryingCoefficientSpace:

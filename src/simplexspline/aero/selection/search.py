@@ -13,13 +13,19 @@ held out (the normal equations of each fold are accumulated once; a fold's train
 system is the sum of the others), and takes the best move when it lowers the score by more
 than ``min_improvement`` (relative). Every tried structure is recorded with its score.
 The held-out validation maneuvers are never used for selection.
+
+The candidates of one search share what does not change between them
+(:class:`SearchCache`): the folds' normal equations per triangulation and degree, per pair
+of terms (:mod:`~simplexspline.aero.selection.fold_equations`), the prior's coarse models
+per fold, and the scores already computed (the prior degree's choice scores the starting
+structure that the search starts from).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -42,11 +48,12 @@ from simplexspline.aero.modelling.structure import Structure, multiplier_values
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.varying import VaryingCoefficientSpace
 from simplexspline.aero.selection.coverage import covered_in_folds
+from simplexspline.aero.selection.fold_equations import FoldEquations, fold_equations
 from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
 from simplexspline.spline import kernels
 
-__all__ = ["PLAIN_FIT", "SelectionSettings", "Trial", "choose_prior_degree", "cv_score", "fit_structure",
-           "select_structure"]
+__all__ = ["PLAIN_FIT", "SearchCache", "SelectionSettings", "Trial", "choose_prior_degree",
+           "cv_score", "fit_structure", "select_structure"]
 
 
 @dataclass(frozen=True)
@@ -163,6 +170,46 @@ class Trial:
                 "error": self.error}
 
 
+@dataclass
+class SearchCache:
+    """What the cross-validations of one coefficient's search share: they run on the same
+    (subsampled) samples, folds and scored samples with the same settings, which the cache
+    is bound to on first use (bound to others, it starts afresh).
+
+    Attributes
+    ----------
+    equations : FoldEquations or None
+        The folds' normal equations per triangulation and degree.
+    coarse : dict
+        The prior's coarse models per fold, by (coarse structure, ridge).
+    scores : dict
+        (structure, prior degree) -> (CV RMS, number of coefficients, simplices).
+    """
+
+    equations: FoldEquations | None = None
+    coarse: dict = field(default_factory=dict)
+    scores: dict = field(default_factory=dict)
+    _scored: np.ndarray | None = None
+    _settings: SelectionSettings | None = None
+
+    def bind(self, y: np.ndarray, folds: np.ndarray, scored,
+             settings: SelectionSettings) -> SearchCache:
+        """Use the cache for these samples, folds, scored mask and settings (emptied when
+        they are not the ones it holds)."""
+        sc = None if scored is None else np.asarray(scored, dtype=bool)
+        same = (self.equations is not None and self.equations.matches(y, folds)
+                and settings == self._settings
+                and (sc is None) == (self._scored is None)
+                and (sc is None or np.array_equal(sc, self._scored)))
+        if not same:
+            self.equations = FoldEquations(y, folds)
+            self.coarse.clear()
+            self.scores.clear()
+            self._scored = sc
+            self._settings = settings
+        return self
+
+
 def _use_prior(structure: Structure, prior) -> bool:
     if prior is None:
         return False
@@ -243,19 +290,6 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
     return AeroModel(structure, scaling, spline, prov, *mscale)
 
 
-def _fold_equations(space, u, m, y, folds, k):
-    """Normal equations of all located samples and of each fold's."""
-    sid = space.triangulation.locate(u)
-    parts = []
-    for f in range(k):
-        sel = (folds == f) & (sid >= 0)
-        parts.append(accumulate(space, u[sel], None if m is None else m[sel], y[sel]))
-    total = parts[0].copy()
-    for p in parts[1:]:
-        total.merge(p)
-    return total, parts
-
-
 def _penalty(space) -> str:
     """The smoothing penalty of a space: the thin-plate energy, or for C^0 spaces (whose
     kinks across facets the energy does not see) the membrane energy."""
@@ -280,7 +314,8 @@ def _solve(space, ne, ridge: float, smoothing=None):
 def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray,
              settings: SelectionSettings = PLAIN_FIT, *, prior_degree: int = 3,
              scored: np.ndarray | None = None,
-             coarse_cache: dict | None = None) -> tuple[float, int, int]:
+             coarse_cache: dict | None = None,
+             equations: FoldEquations | None = None) -> tuple[float, int, int]:
     """k-fold cross-validation RMS (folds = whole maneuvers) of :func:`fit_structure` with
     the same ``settings`` (default :data:`PLAIN_FIT`).
 
@@ -291,6 +326,11 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
     ``coarse_cache`` (a dict kept across calls on the *same* columns, y and folds, as the
     search does) keeps the prior's coarse models per fold: moves that change the grid,
     degree or continuity share one coarse model, and it is fitted once.
+
+    ``equations`` (a :class:`~simplexspline.aero.selection.fold_equations.FoldEquations`
+    of the same y and folds, optional) supplies the folds' normal equations of this
+    structure and of the coarse model from blocks kept for earlier candidates on the same
+    triangulation and degree (equal to a fresh accumulation up to round-off).
 
     Returns
     -------
@@ -307,13 +347,19 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
                                     laid.multiplier_scaling, laid.space)
     tri = space.triangulation
     k = int(folds.max()) + 1
-    total, parts = _fold_equations(space, u, m, y, folds, k)
+    if equations is not None and not equations.matches(y, folds):
+        raise InputError("cv_score: the fold equations given were kept for other samples or "
+                         "folds")
+    if equations is not None:
+        total, parts = equations.get(structure, laid, 0 if use_prior else min_points)
+    else:
+        total, parts = fold_equations(space, u, m, y, folds, k)
     if use_prior:
         cs = coarse_structure(structure, prior_degree)
         cache = {} if coarse_cache is None else coarse_cache
         if (cs, ridge) not in cache:
             cache[cs, ridge] = _coarse_fold_models(cs, input_matrix(columns, cs.inputs), y,
-                                                   folds, k, min_points, ridge)
+                                                   folds, k, min_points, ridge, equations)
         coarse_models = cache[cs, ridge]
     sse = 0.0
     scored = np.ones(len(y), dtype=bool) if scored is None else np.asarray(scored, bool)
@@ -335,12 +381,16 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
 
 
 def _coarse_fold_models(cs: Structure, x: np.ndarray, y: np.ndarray, folds: np.ndarray,
-                        k: int, min_points: int, ridge: float) -> list:
+                        k: int, min_points: int, ridge: float,
+                        equations: FoldEquations | None = None) -> list:
     """The coarse structure ``cs`` fitted to each fold's training data (the prior of a
     cross-validated fine structure), from its inputs ``x``."""
     coarse = StructureSpace.build(cs, x, min_points)
-    c_total, c_parts = _fold_equations(coarse.space, coarse.scheduling, coarse.multipliers,
-                                       y, folds, k)
+    if equations is not None:
+        c_total, c_parts = equations.get(cs, coarse, min_points)
+    else:
+        c_total, c_parts = fold_equations(coarse.space, coarse.scheduling,
+                                          coarse.multipliers, y, folds, k)
     return [AeroModel(cs, coarse.scaling, _solve(coarse.space, c_total - c_parts[f], ridge),
                       {}, *coarse.multiplier_scaling) for f in range(k)]
 
@@ -383,14 +433,17 @@ def _modal_cell(maneuvers: np.ndarray, cells: np.ndarray) -> np.ndarray:
 def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
                         maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
                         seed: int = 0, conditions: np.ndarray | None = None,
-                        cells: np.ndarray | None = None) -> tuple[int, dict]:
+                        cells: np.ndarray | None = None,
+                        cache: SearchCache | None = None) -> tuple[int, dict]:
     """The degree of the prior's coarse model (:data:`~simplexspline.aero.modelling.prior.
     PRIOR_DEGREES`) with the lowest k-fold cross-validation RMS (folds = maneuvers) of the
     *fine* structure shrunk towards it: the coarse model matters where the fine one's data
     are thin, which is what held-out maneuvers probe.
 
     ``conditions`` (flight-condition id per sample) and ``cells`` (envelope cell per
-    sample), optional: see :func:`select_structure`.
+    sample), optional: see :func:`select_structure`. ``cache`` (optional): a
+    :class:`SearchCache` to share with :func:`select_structure` on the same data (its
+    first score, the starting structure with the chosen prior, is then not recomputed).
 
     Returns
     -------
@@ -406,12 +459,16 @@ def choose_prior_degree(structure: Structure, columns: Mapping, y: np.ndarray,
     if setup is None:
         return 3, {}
     cols, ys, folds, scored = setup
+    cache = (cache or SearchCache()).bind(ys, folds, scored, settings)
     scores = {}
     with kernels.one_blas_thread():
         for d in PRIOR_DEGREES:
             try:
-                scores[d] = cv_score(structure, cols, ys, folds, settings, prior_degree=d,
-                                     scored=scored)[0]
+                result = cv_score(structure, cols, ys, folds, settings, prior_degree=d,
+                                  scored=scored, coarse_cache=cache.coarse,
+                                  equations=cache.equations)
+                cache.scores[structure, d] = result
+                scores[d] = result[0]
             except SimplexSplineError:
                 scores[d] = float("inf")
     best = min(scores, key=scores.get)
@@ -426,7 +483,8 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                      maneuvers: np.ndarray, settings: SelectionSettings | None = None, *,
                      seed: int = 0, progress: Callable[[str], None] | None = None,
                      prior_degree: int = 3, conditions: np.ndarray | None = None,
-                     cells: np.ndarray | None = None) -> tuple[Structure, list]:
+                     cells: np.ndarray | None = None,
+                     cache: SearchCache | None = None) -> tuple[Structure, list]:
     """Greedy automatic model structure selection.
 
     Parameters
@@ -457,6 +515,9 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         held-out sample counts only when the training folds cover its cell
         (:func:`~simplexspline.aero.selection.coverage.covered_in_folds`), so the search
         neither rewards nor punishes extrapolation.
+    cache : SearchCache, optional
+        What the cross-validations share (see :class:`SearchCache`); pass the one given
+        to :func:`choose_prior_degree` on the same data to reuse its scores.
 
     Returns
     -------
@@ -479,7 +540,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
     seen: dict = {}
     history: list = []
-    coarse_models: dict = {}       # the prior's coarse fits per fold, shared by moves
+    cache = (cache or SearchCache()).bind(ys, folds, scored, settings)
 
     def score(s: Structure, rnd: int, move: str) -> float:
         key = s
@@ -488,9 +549,12 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         t0 = time.perf_counter()
         trial = Trial(s, float("inf"), rnd, move)
         try:
-            trial.score, trial.ncoefficients, trial.nsimplex = cv_score(
-                s, cols, ys, folds, settings, prior_degree=prior_degree, scored=scored,
-                coarse_cache=coarse_models)
+            done = cache.scores.get((s, prior_degree))
+            if done is None:
+                done = cv_score(s, cols, ys, folds, settings, prior_degree=prior_degree,
+                                scored=scored, coarse_cache=cache.coarse,
+                                equations=cache.equations)
+            trial.score, trial.ncoefficients, trial.nsimplex = done
         except SimplexSplineError as exc:
             trial.error = str(exc)[:300]
         trial.seconds = time.perf_counter() - t0
