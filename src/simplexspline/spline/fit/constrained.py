@@ -424,7 +424,7 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
     # with conditions, one penalty KKT_DELTA and one KKT_DELTA_TIGHT; a pass that fails to
     # converge hands over to the next. Dense (small) systems try KKT_DELTA first; sparse
     # ones, where a second factorisation is what costs, the tight penalty (a few more
-    # refinement steps on well-conditioned conditions, 5 instead of 2 on a 3-D S^1_4 Kuhn
+    # refinement steps on well-conditioned conditions, 6 instead of 2 on a 3-D S^1_4 Kuhn
     # grid, instead of a stall on nearly dependent ones). Last: the unregularised KKT
     # matrix with pivoting (SuperLU).
     sigma = KKT_SIGMA * scale
