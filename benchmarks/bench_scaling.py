@@ -18,6 +18,9 @@ squares over the sweep's points) and a log-log plot (matplotlib, Agg). Usage::
     python benchmarks/bench_scaling.py --quick            # smaller sweeps, about a minute
     python benchmarks/bench_scaling.py --out-dir docs     # the full sweeps (N to 1e7,
                                                           # J to 1e5: tens of minutes)
+    python benchmarks/bench_scaling.py --max-points 1000000 --max-simplices 10000
+                                                          # the full sweeps without their
+                                                          # largest points
 """
 
 from __future__ import annotations
@@ -175,6 +178,10 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller sweeps (about a minute)")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--max-points", type=int, default=None,
+                    help="leave out sweep points with more data points than this")
+    ap.add_argument("--max-simplices", type=int, default=None,
+                    help="leave out sweep points with more simplices than this")
     ap.add_argument("--out-dir", type=Path, default=Path("."),
                     help="where scaling.png and scaling.md are written")
     args = ap.parse_args(argv)
@@ -184,6 +191,9 @@ def main(argv=None) -> int:
         for kind in ("grid", "delaunay"):
             rows = []
             for n, J, d, N in points:
+                if (args.max_points and N > args.max_points) or (
+                        args.max_simplices and J > args.max_simplices):
+                    continue
                 r = measure(kind, n, J, d, N, 1 if N >= 1_000_000 else args.repeats)
                 r["key"] = key
                 rows.append(r)

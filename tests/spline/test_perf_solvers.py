@@ -11,6 +11,7 @@ import scipy.sparse.linalg as spla
 
 from simplexspline import InputError, NormalEquations, OutsideDomainError, SplineSpace, Triangulation
 from simplexspline.spline import kernels
+from simplexspline.spline.bform import bnet_points
 from simplexspline.spline.fit import constrained as solve
 from simplexspline.spline.fit import normal_equations as normal
 from simplexspline.spline.fit.cholesky import SparseCholesky, nested_dissection
@@ -244,3 +245,67 @@ def test_threaded_location_and_evaluation_match_serial(monkeypatch):
     monkeypatch.setenv("SIMPLEXSPLINE_THREADS", "two")
     with pytest.raises(InputError, match="SIMPLEXSPLINE_THREADS must be an integer"):
         tri.locate(x)
+
+
+def _delaunay_problem(nverts, d, seed):
+    """A 3-D Delaunay triangulation of random vertices (slivers and nearly coplanar facets:
+    nearly dependent C^1 conditions) with smooth data in every simplex."""
+    rng = np.random.default_rng(seed)
+    tri = Triangulation.delaunay(rng.random((nverts, 3)))
+    x = ref.points_in_simplices(tri.vertices, tri.simplices, 40, rng)[0]
+    y = np.sin(3 * x[:, 0]) * np.cos(2 * x[:, 1]) + x[:, 2] ** 3
+    return tri, SplineSpace(tri, d, 1), x, y
+
+
+def test_sparse_solve_on_delaunay_is_direct_and_matches_dense_kkt(monkeypatch, sparse_path):
+    """Issue 17: the sparse path on a Delaunay triangulation converges by refinement on one
+    factorisation (no GMRES) and gives the dense KKT reference solution."""
+    tri, space, x, y = _delaunay_problem(9, 3, 17)
+
+    def no_krylov(*args, **kwargs):
+        raise AssertionError("fell back to GMRES")
+
+    monkeypatch.setattr(solve.spla, "gmres", no_krylov)
+    got = space.fit(x, y).coefficients.ravel()
+    X = space.design_matrix(x).toarray()
+    H = ref.smoothness_matrix(tri.vertices, tri.simplices, 3, 1)
+    want = ref.kkt_solution(X, y, H)
+    np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-8 * np.abs(want).max())
+
+
+def test_tight_and_loose_penalty_passes_agree(monkeypatch, sparse_path):
+    """The two penalties on the conditions reach the same constrained minimiser (the
+    refinement removes the regularisation), on a Delaunay triangulation."""
+    _, space, x, y = _delaunay_problem(25, 3, 5)
+    tight = space.fit(x, y, on_insufficient="minnorm").coefficients
+    monkeypatch.setattr(solve, "KKT_DELTA_TIGHT", solve.KKT_DELTA)
+    loose = space.fit(x, y, on_insufficient="minnorm").coefficients
+    np.testing.assert_allclose(tight, loose, rtol=1e-7, atol=1e-8 * np.abs(tight).max())
+    assert np.abs(space.H_full @ tight.ravel()).max() <= 1e-10 * np.abs(tight).max()
+
+
+def test_ordering_positions_follow_facets_on_delaunay():
+    """The nested-dissection positions (smallest centroid of the simplices holding each
+    coefficient) cut between simplices: a cut at any position c leaves every simplex
+    wholly on one side or with only its shared-facet coefficients on the left, and the
+    ordering they give fills less than cutting through the B-net points."""
+    tri, space, x, y = _delaunay_problem(80, 3, 7)
+    system = space.system
+    keys = solve.global_points(tri, 3, system.gather, system.nglobal)
+    cent = tri.vertices[tri.simplices].mean(axis=1)
+    gi = system.gather.reshape(tri.nsimplex, -1)
+    # every simplex's coefficients lie at or left of its own centroid
+    assert np.all(keys[gi] <= cent[:, None, :] + 1e-15)
+    ne = space.normal_equations(x, y)
+    A = system.A_all
+    P = (solve._assemble_gram(ne.XtWX, system.gather, system.nglobal, None) + A.T @ A
+         + sp.eye(system.nglobal)).tocsr()
+
+    def fill(coords):
+        chol = SparseCholesky(P, coords)
+        return sum((e - s) * (e - s + 1) // 2 + (e - s) * len(U)
+                   for s, e, _, _, U in chol.factors)
+
+    pts = np.zeros((system.nglobal, 3))
+    pts[system.gather] = bnet_points(tri.vertices[tri.simplices], 3).reshape(-1, 3)
+    assert fill(keys) < 0.9 * fill(pts)

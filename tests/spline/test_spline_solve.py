@@ -8,6 +8,7 @@ import pytest
 import scipy.sparse
 from hypothesis import given
 from hypothesis import strategies as st
+from scipy.special import comb
 
 from simplexspline import (
     InputError,
@@ -18,6 +19,7 @@ from simplexspline import (
     SplineSpace,
     Triangulation,
 )
+from simplexspline.spline.space import MAX_DEGREE
 
 from . import reference as ref
 from .cases import data_in_simplices, make_triangulation, seeded, smooth_function
@@ -395,3 +397,30 @@ def test_high_degree_fit_limited_by_conditioning_not_refused():
     assert np.sqrt(np.mean((s.predict(x) - y) ** 2)) < 1e-9  # smooth: fitted to round-off
     c = s.coefficients.ravel()
     assert np.abs(SplineSpace(tri, 16, 1).H_full @ c).max() <= 1e-12 * np.abs(c).max()
+
+
+def _bernstein_mass_condition(d: int) -> float:
+    """Condition number of the univariate Bernstein mass matrix of degree d,
+    int B_i B_j = C(d,i) C(d,j) / C(2d,i+j) / (2d+1)."""
+    i = np.arange(d + 1)
+    G = comb(d, i)[:, None] * comb(d, i)[None, :] / comb(2 * d, i[:, None] + i[None, :])
+    w = np.linalg.eigvalsh(G)
+    return w[-1] / w[0]
+
+
+def test_numerically_hopeless_degree_is_refused_up_front():
+    """Issue 18, item 7: d = 30 with minnorm took minutes and then failed; a degree whose
+    Gram matrices pass double precision is refused when the space is made, naming the
+    limit and what to do."""
+    # evenly spread data: condition 1e12 at most; real data are 10-100 times worse
+    assert _bernstein_mass_condition(MAX_DEGREE) < 1e12 < _bernstein_mass_condition(
+        MAX_DEGREE + 2)
+    tri = Triangulation.grid([0, 0], [1, 1], (2, 2))
+    for d in (MAX_DEGREE + 1, 30):
+        with pytest.raises(InputError, match=f"degree {d} is numerically hopeless.*"
+                                             f"use degree <= {MAX_DEGREE}"):
+            SplineSpace(tri, d, 1)
+    x = seeded("hopeless").random((5000, 2))
+    with pytest.raises(InputError, match="numerically hopeless"):
+        SimplexSpline.fit(x, x[:, 0], tri, degree=30, on_insufficient="minnorm")
+    assert SplineSpace(tri, MAX_DEGREE, 1).nbasis == 231

@@ -45,7 +45,17 @@ from simplexspline.spline.inputs import as_points, check_basis_size, check_degre
 from simplexspline.spline.uncertainty.intervals import ARRAYS as STATISTICS_ARRAYS
 from simplexspline.spline.uncertainty.intervals import Uncertainty
 
-__all__ = ["SimplexSpline", "SplineSpace"]
+__all__ = ["MAX_DEGREE", "SimplexSpline", "SplineSpace"]
+
+#: Highest degree a space is fitted at. The B-form's Gram matrix grows ill-conditioned by
+#: a factor of about 4 per degree: the Bernstein mass matrix of degree d (the Gram matrix
+#: of evenly spread data; 1-D, and 2-D within a factor 2) has condition number 2.2e9 at
+#: d = 16, 5.1e11 at d = 20 and 7.9e12 at d = 22 (2-D); Gram blocks of 5,000 random points
+#: on a 2 x 2 grid are 10-100 times worse: 3e10-2e11 at d = 16, 4e13-1.3e14 at d = 20,
+#: 2e15-8e15 at d = 22 (1/eps = 4.5e15: no coefficient keeps a significant digit) and
+#: 3e19 at d = 30, where the minimum-norm solve took minutes and then failed. Measured
+#: there with ``on_insufficient='minnorm'`` on a loaded machine: d = 20 13 s, d = 22 58 s.
+MAX_DEGREE = 20
 
 
 class SplineSpace:
@@ -58,7 +68,8 @@ class SplineSpace:
     ----------
     triangulation : Triangulation
     degree : int
-        Polynomial degree d >= 0.
+        Polynomial degree, 0 <= d <= :data:`MAX_DEGREE` (20; above it the B-form is
+        numerically hopeless in double precision).
     continuity : int
         Continuity order r, ``-1 <= r < d`` (-1: pieces independent).
     facet_continuity : array_like of int, shape (F,), optional
@@ -84,6 +95,13 @@ class SplineSpace:
         self.triangulation = triangulation
         self.degree, self.continuity = check_degree(degree, continuity)
         check_basis_size(triangulation.ndim, self.degree)
+        if self.degree > MAX_DEGREE:
+            raise InputError(
+                f"degree {self.degree} is numerically hopeless: the Gram matrices of "
+                f"B-form polynomials above degree {MAX_DEGREE} (MAX_DEGREE) have condition "
+                "numbers beyond double precision, so no coefficient could be determined; "
+                f"use degree <= {MAX_DEGREE} (and refine the triangulation for more "
+                "detail)")
         self.facet_continuity = None
         if facet_continuity is not None:
             fc = np.asarray(facet_continuity)

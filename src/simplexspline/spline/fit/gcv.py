@@ -30,8 +30,8 @@ import scipy.sparse.linalg as spla
 
 from simplexspline.errors import InputError, InsufficientDataError
 from simplexspline.spline import kernels
-from simplexspline.spline.bform import bnet_points
 from simplexspline.spline.fit.cholesky import SparseCholesky
+from simplexspline.spline.fit.constrained import global_points
 
 __all__ = [
     "DEFAULT_PROBES",
@@ -283,10 +283,7 @@ class _HutchinsonGCV:
         cache = getattr(system, "solver_cache", None)
         self.coords = cache.get("points") if cache is not None else None
         if self.coords is None:
-            tri = ne.triangulation
-            pts = bnet_points(tri.vertices[tri.simplices], ne.degree).reshape(-1, tri.ndim)
-            self.coords = np.zeros((self.M, tri.ndim))
-            self.coords[self.gather] = pts
+            self.coords = global_points(ne.triangulation, ne.degree, self.gather, self.M)
 
     def evaluate(self, lam: float):
         ne = self.ne
