@@ -376,3 +376,31 @@ def test_gcv_regularisation_stops_the_divergence_at_a_thin_edge(seed):
     assert rms(reg, thin) < 0.05 * rms(plain, thin)
     assert rms(reg, ~thin) < 1.2 * rms(plain, ~thin)
     assert reg.info.regularization.chosen_by == "gcv"
+
+
+def test_ridge_fit_defers_the_undetermined_analysis(monkeypatch):
+    """With a ridge every direction is determined, so the (costly) analysis of the
+    directions that data and continuity leave free runs only when ``info`` is read; it
+    then gives what the eager analysis of a minimum-norm fit gives."""
+    from simplexspline.spline.fit import constrained
+
+    tri = Triangulation.grid([0, 0], [1, 1], (3, 3))
+    rng = seeded("deferred")
+    x = rng.uniform(0, 1, (4000, 2))
+    x = x[~np.isin(tri.locate(x), [4, 5])]               # two simplices without data
+    y = smooth_function(x)
+    space = SplineSpace(tri, 3, 0)
+    eager = space.fit(x, y, on_insufficient="minnorm").info
+    assert eager.n_undetermined > 0 and set(eager.undetermined_simplices) == {4, 5}
+    calls = []
+    real = constrained._undetermined
+    monkeypatch.setattr(constrained, "_undetermined",
+                        lambda *a: calls.append(1) or real(*a))
+    ridged = space.fit(x, y, on_insufficient="ridge")
+    assert calls == []                                   # not run by the fit
+    assert ridged.info.n_undetermined == eager.n_undetermined
+    np.testing.assert_array_equal(ridged.info.undetermined_simplices,
+                                  eager.undetermined_simplices)
+    assert len(calls) == 1                               # once, when first read
+    assert ridged.info.policy == "ridge" and ridged.info.ridge > 0
+    assert "n_undetermined=" in repr(ridged.info)

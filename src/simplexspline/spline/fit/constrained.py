@@ -85,6 +85,39 @@ class SolveInfo:
     rss: float = field(default=float("nan"))
 
 
+class _DeferredSolveInfo(SolveInfo):
+    """A :class:`SolveInfo` whose undetermined directions are analysed on first access.
+
+    A fit with a ridge needs no such analysis to solve (the ridge determines every
+    direction), and its cost (dense SVDs of the null directions' conditions) dominated
+    the structure search: 90 % of a 5-D S^1_3 cross-validation, 25 s of a 6-D Delaunay
+    fit. The fields read the same as an eager ``SolveInfo``'s.
+    """
+
+    def __init__(self, analyse, **fields):
+        self._deferred = {"analyse": analyse}
+        super().__init__(undetermined_simplices=None, n_undetermined=None, **fields)
+
+    def _field(name):  # noqa: N805 - builds the two deferred properties below
+        def get(self):
+            d = self._deferred
+            if "analyse" in d:
+                under, n = d.pop("analyse")()
+                d.setdefault("undetermined_simplices", under)
+                d.setdefault("n_undetermined", n)
+            return d[name]
+
+        def put(self, value):
+            if value is not None:
+                self._deferred[name] = value
+
+        return property(get, put)
+
+    undetermined_simplices = _field("undetermined_simplices")
+    n_undetermined = _field("n_undetermined")
+    del _field
+
+
 def _full_rank_blocks(Q: np.ndarray, counts: np.ndarray) -> np.ndarray:
     """Cheap screen: blocks certainly of full rank (boolean, shape (J,)).
 
@@ -235,15 +268,25 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
     # many small and medium dense problems (eigh, QR, SVD): BLAS threads only cost here;
     # on a loaded machine OpenBLAS's spinning threads made them 8-20x slower (a 272-simplex
     # Delaunay S^1_3 solve: 7.7 s threaded, 0.9 s on one thread)
+    if ridge is None and on_insufficient == "ridge":
+        ridge = DEFAULT_RIDGE
     with kernels.one_blas_thread():
         N, deficient = _null_directions(Q, ne.counts)
         if penalty is not None:
             N, _ = _null_directions(Qp, ne.counts)
-        Zu = _undetermined(N, system.H_full)
-    under = np.unique(Zu.indices // dhat)
-    if ridge is None and on_insufficient == "ridge":
-        ridge = DEFAULT_RIDGE
-    if Zu.shape[1] and on_insufficient == "raise" and not ridge:
+    H = system.H_full
+
+    def analyse():
+        """The undetermined directions (a basis, sparse) and their simplices."""
+        with kernels.one_blas_thread():
+            Z = _undetermined(N, H)
+        return Z, np.unique(Z.indices // dhat)
+
+    if ridge:            # the ridge determines every direction: analysed only if asked
+        Zu, under = None, None
+    else:
+        Zu, under = analyse()
+    if not ridge and Zu.shape[1] and on_insufficient == "raise":
         raise InsufficientDataError(
             f"the data do not determine the spline on {len(under)} simplices "
             f"{_listing(under, ne.counts)}: {Zu.shape[1]} coefficient directions have no "
@@ -256,10 +299,11 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
     diag_mean = float(np.einsum("jkk->", Q) / max(int((ne.counts > 0).sum()) * dhat, 1))
     lam = float(ridge or 0.0) * diag_mean
     gather, M = system.gather, system.nglobal
-    if M == nsimp * dhat and system.A_all.shape[0] == 0 and (Zu.shape[1] == 0 or lam):
+    if M == nsimp * dhat and system.A_all.shape[0] == 0 and (Zu is None or lam
+                                                             or Zu.shape[1] == 0):
         # No continuity (r = -1): independent dense blocks, solved directly.
         coef = _solve_blocks(Qp + lam * np.eye(dhat), q)
-        return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
+        return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam, analyse)
     # G'QG and G'q, assembled sparse from the blocks.
     Qg = _assemble_gram(Qp, gather, M, getattr(system, "solver_cache", None))
     qg = np.bincount(gather, weights=q.ravel(), minlength=M)
@@ -267,7 +311,7 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
         mult = np.bincount(gather, minlength=M).astype(float)
         Qg = Qg + sp.diags(lam * mult)
     A = system.A_all
-    if Zu.shape[1] and on_insufficient == "minnorm" and not lam:
+    if Zu is not None and not lam and Zu.shape[1] and on_insufficient == "minnorm":
         # Minimum norm: the undetermined directions (which lie in range(G)) are set to zero.
         G = sp.csr_matrix((np.ones(len(gather)), (np.arange(len(gather)), gather)),
                           shape=(len(gather), M))
@@ -282,7 +326,7 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
     g = _al_solve(Qg.tocsc(), qg, A, diag_mean, coords,
                   cache.setdefault("cholesky", {}) if cache is not None else None, ridge=lam)
     coef = g[gather].reshape(nsimp, dhat)
-    return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam)
+    return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam, analyse)
 
 
 def _assemble_gram(Q: np.ndarray, gather: np.ndarray, M: int,
@@ -323,19 +367,20 @@ def _solve_blocks(Q: np.ndarray, q: np.ndarray) -> np.ndarray:
     return coef
 
 
-def _info(ne, coef, deficient, under, Zu, policy, lam) -> SolveInfo:
+def _info(ne, coef, deficient, under, Zu, policy, lam, analyse) -> SolveInfo:
+    """The fit's :class:`SolveInfo`; with ``Zu`` None (a ridge fit) its undetermined
+    directions are analysed by ``analyse()`` when first read."""
     Q, q = ne.XtWX, ne.XtWy
     rss = float(ne.ytWy - 2.0 * np.einsum("jk,jk->", coef, q)
                 + np.einsum("jk,jkl,jl->", coef, Q, coef))
-    return SolveInfo(
-        counts=ne.counts.copy(),
-        deficient_simplices=deficient,
-        undetermined_simplices=under,
-        n_undetermined=int(Zu.shape[1]),
-        policy=policy,
-        ridge=lam,
-        rss=max(rss, 0.0),
-    )
+    fields = {"counts": ne.counts.copy(), "deficient_simplices": deficient,
+              "policy": policy, "ridge": lam, "rss": max(rss, 0.0)}
+    if Zu is None:
+        def deferred():
+            Z, simplices = analyse()
+            return simplices, int(Z.shape[1])
+        return _DeferredSolveInfo(deferred, **fields)
+    return SolveInfo(undetermined_simplices=under, n_undetermined=int(Zu.shape[1]), **fields)
 
 
 #: Regularisation of the factorised KKT matrix, relative to the mean diagonal of G'QG:
@@ -443,13 +488,14 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
             pre = _preconditioner(Qg, A, sigma, delta, coords, cache)
         if pre is None:
             continue
-        z = _refine(pre, K, rhs, M, tol, krylov=krylov)
+        z, last = _refine(pre, K, rhs, M, tol, krylov=krylov, last_iterate=True)
         if z is not None:
             return z[:M]
-        if stable is None:
-            stable = _refine(pre, K, rhs, M, np.inf, krylov=krylov)
-            if stable is not None and _backward_error(K, stable, rhs, Qg, A) > BACKWARD_TOL:
-                stable = None
+        # the pass's own last finite iterate (refining again would repeat the same
+        # steps and the same GMRES restarts: 40 % of an identification's time once)
+        if stable is None and last is not None \
+                and _backward_error(K, last, rhs, Qg, A) <= BACKWARD_TOL:
+            stable = last
     if stable is not None:
         # no pass met the forward-error tolerance, but one solved the system to round-off:
         # the conditioning of the data (high degrees: Gram blocks with condition numbers
@@ -542,12 +588,14 @@ def _splu(K: sp.csc_matrix, thresh: float):
         return None
 
 
-def _refine(solve, K, rhs, M, tol: float = 1e-8, krylov: bool = True):
+def _refine(solve, K, rhs, M, tol: float = 1e-8, krylov: bool = True,
+            last_iterate: bool = False):
     """Solve K z = rhs with an approximate inverse ``solve``: iterative refinement, then
     (if that converges slowly and ``krylov``) preconditioned GMRES.
 
     Returns None when the relative size of the last correction (the forward-error
-    estimate) of the coefficient part stays above ``tol``."""
+    estimate) of the coefficient part stays above ``tol``; with ``last_iterate`` a pair:
+    that result and the last iterate (None when not finite), whatever its error."""
     with np.errstate(all="ignore"):
         z = solve(rhs)
         last = np.inf
@@ -567,9 +615,11 @@ def _refine(solve, K, rhs, M, tol: float = 1e-8, krylov: bool = True):
                 step = np.abs(solve(rhs - K @ z2)[:M]).max() / max(np.abs(z2[:M]).max(),
                                                                    1e-300)
                 z = z2
-    if not np.all(np.isfinite(z)) or step > tol:
-        return None
-    return z
+    finite = bool(np.all(np.isfinite(z)))
+    out = z if finite and step <= tol else None
+    if last_iterate:
+        return out, (z if finite else None)
+    return out
 
 
 def _listing(ids: np.ndarray, counts: np.ndarray, most: int = 12) -> str:
