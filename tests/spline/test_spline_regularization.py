@@ -404,3 +404,22 @@ def test_ridge_fit_defers_the_undetermined_analysis(monkeypatch):
     assert len(calls) == 1                               # once, when first read
     assert ridged.info.policy == "ridge" and ridged.info.ridge > 0
     assert "n_undetermined=" in repr(ridged.info)
+
+
+def test_deferred_info_travels_between_processes_as_a_plain_one():
+    """Fitted models come back from worker processes pickled: a deferred info arrives as
+    a plain SolveInfo with the analysis done (and its other attributes kept)."""
+    import pickle
+
+    from simplexspline.spline.fit.constrained import SolveInfo
+
+    tri = Triangulation.grid([0, 0], [1, 1], (3, 3))
+    rng = seeded("deferred-pickle")
+    x = rng.uniform(0, 1, (4000, 2))
+    x = x[tri.locate(x) != 4]
+    spline = SplineSpace(tri, 3, 0).fit(x, smooth_function(x), on_insufficient="ridge")
+    spline.info.regularization = "kept"
+    back = pickle.loads(pickle.dumps(spline.info))
+    assert type(back) is SolveInfo and back.regularization == "kept"
+    assert back.n_undetermined == spline.info.n_undetermined > 0
+    np.testing.assert_array_equal(back.undetermined_simplices, [4])

@@ -24,7 +24,7 @@ per-simplex null spaces of the Gram blocks and handled by the ``on_insufficient`
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 import scipy.linalg as sla
@@ -116,6 +116,21 @@ class _DeferredSolveInfo(SolveInfo):
     undetermined_simplices = _field("undetermined_simplices")
     n_undetermined = _field("n_undetermined")
     del _field
+
+    def __reduce__(self):
+        # sent to another process (a fitted model from a worker) as a plain SolveInfo:
+        # the analysis runs here, once, for the models that travel
+        values = {f.name: getattr(self, f.name) for f in fields(SolveInfo)}
+        extra = {k: v for k, v in vars(self).items() if k != "_deferred" and k not in values}
+        return _plain_info, (values, extra)
+
+
+def _plain_info(fields: dict, extra: dict) -> SolveInfo:
+    """A :class:`SolveInfo` with ``fields`` and further attributes ``extra`` (unpickling
+    a deferred one)."""
+    info = SolveInfo(**fields)
+    vars(info).update(extra)
+    return info
 
 
 def _full_rank_blocks(Q: np.ndarray, counts: np.ndarray) -> np.ndarray:
