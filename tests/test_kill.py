@@ -42,8 +42,16 @@ def _snapshot(root: Path) -> dict:
 
 
 def _temporaries(root: Path) -> list:
-    return sorted(str(p.relative_to(root)) for p in root.rglob(".*")
-                  if p.name.endswith((".tmp", ".old")) or p.name.startswith(".identify."))
+    """The hidden temporaries under ``root``; the command under test creates and removes
+    them while this walks (a directory vanishing mid-walk: walk again)."""
+    for _ in range(100):
+        try:
+            return sorted(str(p.relative_to(root)) for p in root.rglob(".*")
+                          if p.name.endswith((".tmp", ".old"))
+                          or p.name.startswith(".identify."))
+        except FileNotFoundError:
+            continue
+    raise AssertionError(f"{root} kept changing during 100 walks")
 
 
 def _run(args: list, cwd: Path) -> subprocess.CompletedProcess:
