@@ -1,6 +1,22 @@
-"""Comparison benchmark (issue 7): simplex splines against other model types.
+"""Comparison benchmark (issues 7 and 19): simplex splines against other model types.
 
-On a simulated F-16 flight-test campaign (JSBSim, reconstructed by the IEKF + RTS smoother,
+Two modes.
+
+``--candidates full`` (default, issue 19's honest comparison): on campaigns of several
+aircraft (``--aircraft``, default the F-16 and the Cessna 172P), flown at conditions between
+the aircraft's default grid points with seed 101 (``ConditionGrid.between``, as
+``bench_generalization.py``), the **default** identification (``identify`` with no
+settings: knowledge-free start, structure search) is run once per aircraft; every other
+model type is then given the *same* full candidate variable set (every column of
+``CANDIDATE_VARIABLES`` the data hold and that varies: alpha, beta, Mach, the rates, the
+controls, alpha-dot and beta-dot, flap ...), trained on the same identification maneuvers
+and scored on the same validation samples (those inside the identification data's
+envelope, as ``identify`` scores them) against the true coefficients. Types:
+``spline-default``, ``stepwise-cv``, ``tensor``, ``rbf``, ``mlp``, ``lightgbm`` (early
+stopping on held-out maneuvers) and ``ebm`` (``interpret``'s explainable boosting machine),
+the last two from the ``compare`` extra (``pip install 'simplexspline[compare]'``).
+
+``--candidates paper`` (issue 7): on a simulated F-16 flight-test campaign (JSBSim, reconstructed by the IEKF + RTS smoother,
 exactly the data of ``simplexspline identify``), every coefficient CX..Cn is modelled from
 the *same* explanatory variables (the paper preset, ``simplexspline.aero.modelling.structure``) by
 
@@ -21,7 +37,8 @@ evaluation throughput and single-point latency, and model size.
 
 Usage::
 
-    python benchmarks/bench_compare.py                      # 120 maneuvers, ~10-15 min
+    python benchmarks/bench_compare.py --out benchmarks/RESULTS-compare-full.md
+    python benchmarks/bench_compare.py --candidates paper   # 120 maneuvers, ~10-15 min
     python benchmarks/bench_compare.py --data DIR --out RESULTS.md
     python benchmarks/bench_compare.py --quick              # smoke run (20 maneuvers)
 
@@ -121,7 +138,12 @@ def campaign(maneuvers: int, seed: int, data_dir: Path, workers: int, log=print)
 
 # ----------------------------------------------------------------------------- models
 MODEL_TYPES = ("spline", "spline-tuned", "stepwise-cv", "stepwise-F", "tensor", "rbf", "mlp")
+#: The model types of the full-candidate comparison (issue 19).
+FULL_TYPES = ("spline-default", "stepwise-cv", "tensor", "rbf", "mlp", "lightgbm", "ebm")
 LABELS = {
+    "spline-default": "simplex spline, knowledge-free defaults (`identify`)",
+    "lightgbm": "LightGBM, early stopping",
+    "ebm": "explainable boosting machine (interpret)",
     "spline": "simplex spline, paper preset",
     "spline-tuned": "simplex spline, degree + grid by CV",
     "stepwise-cv": "polynomial, stepwise (CV)",
@@ -141,6 +163,7 @@ class Fitted:
     save: object               # path stem -> saved file path
     note: str = ""
     skipped: str = ""
+    fit_seconds: float | None = None   # the fit's time when it ran elsewhere (identify)
 
 
 def _baselines():
@@ -180,6 +203,15 @@ def fit_model(kind: str, structure, data: dict, args) -> Fitted:
         return Fitted(model.predict, int(model.spline.coefficients.size), save,
                       note + f"{s.label()}, {nsimp} simplices", )
 
+    return fit_baseline(kind, x, y, mans, folds, scaling, args)
+
+
+def fit_baseline(kind: str, x: np.ndarray, y: np.ndarray, mans: np.ndarray,
+                 folds: np.ndarray, scaling, args) -> Fitted:
+    """Fit one of the other model types on physical inputs ``x`` (N, n), scaled to the
+    identification data's unit box (``scaling``) and clamped to it."""
+    B = _baselines()
+    n = x.shape[1]
     u = scaling.transform(x)
 
     def wrap(m):
@@ -194,11 +226,10 @@ def fit_model(kind: str, structure, data: dict, args) -> Fitted:
         crit = "cv" if kind == "stepwise-cv" else "F"
         res = B.stepwise_regression(u, y, folds, order=args.poly_order, criterion=crit)
         m = res.model
-        nterms = B.monomial_exponents(len(variables), args.poly_order).shape[0]
+        nterms = B.monomial_exponents(n, args.poly_order).shape[0]
         return Fitted(wrap(m), m.nparams, saver(m),
                       f"{m.nparams} of {nterms} terms (order <= {args.poly_order})")
     if kind == "tensor":
-        n = len(variables)
         # Normal equations cost 2 * 4^(2n) flops per sample: subsample beyond the budget.
         cap = max(1000, int(args.tensor_flops / (2 * 4 ** (2 * n))))
         step = max(1, -(-len(y) // cap))
@@ -232,7 +263,18 @@ def fit_model(kind: str, structure, data: dict, args) -> Fitted:
         return Fitted(wrap(m), m.nparams, saver(m),
                       f"{m.samples:,} random training samples, {r.n_iter_} epochs"
                       f"{' (limit)' if r.n_iter_ >= args.mlp_epochs else ''}")
-    raise ValueError(f"unknown model type {kind!r}; known: {MODEL_TYPES}")
+    if kind == "lightgbm":
+        m = B.fit_lightgbm(u, y, mans, seed=args.seed)
+        return Fitted(wrap(m), m.nparams, m.save,
+                      f"{m.rounds} rounds (early stopping on 20 % of the maneuvers), "
+                      f"{m.samples:,} training samples")
+    if kind == "ebm":
+        m = B.fit_ebm(u, y, max_samples=args.ebm_samples, seed=args.seed)
+        names = list(m.regressor.term_names_)
+        return Fitted(wrap(m), m.nparams, m.save,
+                      f"{len(names)} terms ({sum(' & ' in t for t in names)} pairwise), "
+                      f"{m.samples:,} random training samples")
+    raise ValueError(f"unknown model type {kind!r}; known: {MODEL_TYPES + FULL_TYPES}")
 
 
 def _median_time(fn, repeats: int) -> tuple[float, object]:
@@ -244,18 +286,24 @@ def _median_time(fn, repeats: int) -> tuple[float, object]:
     return float(np.median(times)), out
 
 
-def measure(kind: str, structure, data: dict, val: dict, args, workdir: Path) -> dict:
-    """Fit (median of up to ``args.repeats`` when a fit takes < 5 s), score, time, size."""
+def measure(kind: str, structure, data: dict, val: dict, args, workdir: Path,
+            fit=None) -> dict:
+    """Fit (median of up to ``args.repeats`` when a fit takes < 5 s), score, time, size.
+
+    ``fit``: a callable returning the :class:`Fitted` (default: :func:`fit_model` of
+    ``kind`` on ``structure`` and ``data``); ``structure`` may then be the coefficient's
+    name."""
     from simplexspline.aero.selection.validation import scores
 
+    fit = fit or (lambda: fit_model(kind, structure, data, args))
     t0 = time.perf_counter()
-    fitted = fit_model(kind, structure, data, args)
-    fit_s = [time.perf_counter() - t0]
+    fitted = fit()
+    fit_s = [time.perf_counter() - t0 if fitted.fit_seconds is None else fitted.fit_seconds]
     if fitted.skipped:
         return {"model": kind, "skipped": fitted.skipped}
-    while len(fit_s) < args.repeats and fit_s[0] < 5.0:
+    while len(fit_s) < args.repeats and fit_s[0] < 5.0 and fitted.fit_seconds is None:
         t0 = time.perf_counter()
-        fitted = fit_model(kind, structure, data, args)
+        fitted = fit()
         fit_s.append(time.perf_counter() - t0)
     xv = val["x"]
     pred = fitted.predict(xv)                       # also warms up JIT-compiled kernels
@@ -276,7 +324,8 @@ def measure(kind: str, structure, data: dict, val: dict, args, workdir: Path) ->
         t0 = time.perf_counter()
         fitted.predict(p)
         single.append(time.perf_counter() - t0)
-    path = fitted.save(workdir / f"{structure.coefficient}_{kind}")
+    name = getattr(structure, "coefficient", structure)
+    path = fitted.save(workdir / f"{name}_{kind}")
     return {"model": kind, "rms_true": sc["rms_true"], "rrms_true": sc["rrms_true"],
             "rms": sc["rms"], "noise_rms": sc["noise_rms"],
             "fit_s": float(np.median(fit_s)), "fit_repeats": len(fit_s),
@@ -296,15 +345,18 @@ def _fmt_bytes(b: int) -> str:
 def markdown(results: dict, context: dict) -> str:
     """The report: context, the accuracy table, the cost table, per-coefficient details."""
     coefs = list(results)
-    kinds = [k for k in MODEL_TYPES if any(k in results[c] for c in coefs)]
-    lines = ["# Model types compared on a simulated F-16 campaign", "",
+    order = dict.fromkeys((*MODEL_TYPES, *FULL_TYPES))
+    kinds = [k for k in order if any(k in results[c] for c in coefs)]
+    lines = [context.get("title", "# Model types compared on a simulated F-16 campaign"), "",
              f"Command: `{context['command']}`", ""]
     lines += [f"- {line}" for line in context["notes"]]
     lines += ["", "## Validation RMS against the true coefficient", "",
               "RMS of (model - true coefficient) on the validation maneuvers; in brackets "
               "relative to the range of the measured coefficient (as `identify` reports "
               "`rrms_true`). Best per coefficient in bold.", ""]
-    head = [f"{c}({', '.join(results[c]['_variables'])})" for c in coefs]
+    shared = len({tuple(results[c]["_variables"]) for c in coefs}) == 1
+    head = [c if shared and context.get("full") else
+            f"{c}({', '.join(results[c]['_variables'])})" for c in coefs]
     lines.append("| model | " + " | ".join(head) + " |")
     lines.append("|---" * (len(coefs) + 1) + "|")
     best = {}
@@ -329,6 +381,19 @@ def markdown(results: dict, context: dict) -> str:
              for c in coefs]
     lines.append("| *noise RMS (measured - true)* | " +
                  " | ".join(f"*{v:.2e}*" for v in noise) + " |")
+    lines += ["", "## RMS against the truth over the noise RMS", "",
+              "The figure `identify` reports as `rms_true_over_noise`: below 1, the model "
+              "is closer to the true coefficient than the measured coefficient is.", "",
+              "| model | " + " | ".join(coefs) + " |", "|---" * (len(coefs) + 1) + "|"]
+    for k in kinds:
+        cells = []
+        for c in coefs:
+            r = results[c].get(k)
+            ok = r is not None and "rms_true" in r and r["noise_rms"] > 0
+            txt = f"{r['rms_true'] / r['noise_rms']:.2f}" if ok else \
+                ("skipped" if r is not None else "")
+            cells.append(f"**{txt}**" if ok and best[c] == k else txt)
+        lines.append(f"| {LABELS[k]} | " + " | ".join(cells) + " |")
     lines += ["", "## Cost", "",
               "Fit: wall time on the identification set including each type's own tuning "
               "(structure search, term selection, knot count, smoothing, early stopping); "
@@ -359,7 +424,7 @@ def markdown(results: dict, context: dict) -> str:
             f"{rng([r['bytes'] for r in rs], _fmt_bytes)} |")
     lines += ["", "## Per coefficient", ""]
     for c in coefs:
-        lines += [f"### {c}({', '.join(results[c]['_variables'])})", "",
+        lines += [f"### {head[coefs.index(c)]}", "",
                   "| model | RMS vs truth | rel. | fit | points/s | 1 point | parameters | "
                   "bytes | model chosen |", "|---|---|---|---|---|---|---|---|---|"]
         for k in kinds:
@@ -381,12 +446,15 @@ def markdown(results: dict, context: dict) -> str:
                     if not k.startswith("_") and "rms_true" in r)
         if not ok:
             continue
-        spline = results[c].get("spline-tuned", results[c].get("spline", {})).get("rms_true")
+        spline = results[c].get("spline-default", results[c].get(
+            "spline-tuned", results[c].get("spline", {}))).get("rms_true")
         order = ", ".join(
             f"{k} {v:.2e}" + (f" ({100 * (v / spline - 1):+.0f} %)" if spline else "")
             for v, k in ok)
         lines.append(f"- {c}: {order}")
-    if any("spline-tuned" in results[c] for c in coefs):
+    if any("spline-default" in results[c] for c in coefs):
+        lines += ["", "(percentages relative to the simplex spline defaults)"]
+    elif any("spline-tuned" in results[c] for c in coefs):
         lines.append("")
         lines.append("(percentages relative to the tuned simplex spline)")
     return "\n".join(lines) + "\n"
@@ -404,6 +472,162 @@ def _atomic_text(path: Path, text: str) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+# ----------------------------------------------------------------------------- full
+def full_campaign(aircraft: str, maneuvers: int, seed: int, design: str, data_dir: Path,
+                  workers: int, log=print):
+    """A reconstructed campaign of ``aircraft`` between its grid conditions (cached):
+    (DataFrame, metadata, note)."""
+    from simplexspline.aero.data.flight_data import read_flight_data, write_flight_data
+    from simplexspline.aero.reconstruction.reconstruct import reconstruct
+    from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol
+
+    data_dir.mkdir(parents=True, exist_ok=True)
+    path = data_dir / f"{aircraft}_{design}_between_m{maneuvers}_s{seed}_rec.parquet"
+    if path.is_file():
+        df, meta = read_flight_data(path, nan="ignore")
+        log(f"reconstructed {aircraft} campaign from the cache {path}")
+        return df, meta, {"cached": str(path)}
+    protocol = FlightProtocol.alternative() if design == "alternative" else FlightProtocol()
+    t0 = time.perf_counter()
+    raw = Campaign(aircraft, maneuvers=maneuvers, seed=seed,
+                   grid=ConditionGrid.between(aircraft), protocol=protocol
+                   ).run(workers=workers, progress=False)
+    note = {"simulate_s": round(time.perf_counter() - t0, 1)}
+    t0 = time.perf_counter()
+    rec = reconstruct(raw, raw.attrs, workers=workers)
+    note["reconstruct_s"] = round(time.perf_counter() - t0, 1)
+    note["rejected"] = len(rec.rejected)
+    log(f"{aircraft}: simulated in {note['simulate_s']} s, reconstructed in "
+        f"{note['reconstruct_s']} s ({note['rejected']} maneuvers rejected)")
+    write_flight_data(rec.data, path, rec.data.attrs)
+    df, meta = read_flight_data(path, nan="ignore")
+    return df, meta, note
+
+
+def full_variables(ident) -> list[str]:
+    """The full candidate set: every candidate variable the identification data hold,
+    finite and varying (what the default search may choose from)."""
+    from simplexspline.aero.variables import CANDIDATE_VARIABLES
+
+    out = []
+    for v in CANDIDATE_VARIABLES:
+        if v in ident.columns:
+            x = ident[v].to_numpy(dtype=float)
+            if np.all(np.isfinite(x)) and np.ptp(x) > 0:
+                out.append(v)
+    return out
+
+
+def run_full(args, kinds: list, coefs: list, log) -> str:
+    """Issue 19's comparison: per aircraft, the default identification and every other
+    model type on the same full candidate set, split and validation samples."""
+    from threadpoolctl import threadpool_limits
+
+    import scipy
+    import sklearn
+
+    import simplexspline
+    from simplexspline.aero import identify
+    from simplexspline.aero.identify import IdentificationSettings
+    from simplexspline.aero.modelling.structure import Scaling
+    from simplexspline.aero.selection.validation import fold_by_maneuver
+
+    load0 = os.getloadavg()[0]
+    t_start = time.perf_counter()
+    sections = []
+    for aircraft in args.aircraft:
+        df, meta, note = full_campaign(aircraft, args.maneuvers, args.seed, args.design,
+                                       args.data or default_cache(), args.workers, log)
+        t0 = time.perf_counter()
+        result = identify(df, meta, settings=IdentificationSettings(
+            coefficients=tuple(coefs), workers=args.workers, seed=args.seed))
+        identify_s = time.perf_counter() - t0
+        log(f"{aircraft}: default identification in {identify_s:.0f} s")
+        ident, valid_all = result.identification, result.validation
+        variables = full_variables(ident)
+        x = ident[variables].to_numpy(dtype=float)
+        mans = ident["maneuver"].to_numpy()
+        folds = fold_by_maneuver(mans, 3, seed=args.seed)
+        scaling = Scaling.from_data(x, variables)
+        results = {}
+        with tempfile.TemporaryDirectory(prefix="bench-compare-") as tmp, \
+                threadpool_limits(limits=1, user_api="blas"):
+            for c in result.results:
+                y = ident[c].to_numpy(dtype=float)
+                res = result.results[c]
+                # the samples identify scores: covered cell, kept simplex, identified box
+                valid = valid_all.loc[valid_all[f"inside_{c}"].to_numpy(dtype=bool)]
+                val = {"y": valid[c].to_numpy(dtype=float),
+                       "truth": valid[f"true_{c}"].to_numpy(dtype=float)}
+                results[c] = {"_variables": variables}
+                for k in kinds:
+                    if k == "spline-default":
+                        model = res.model
+
+                        def fit(model=model, res=res):
+                            return Fitted(model.predict, int(model.spline.coefficients.size),
+                                          lambda stem, m=model: m.save(Path(f"{stem}.json")),
+                                          f"{model.structure.label()}, "
+                                          f"{model.spline.triangulation.nsimplex} simplices",
+                                          fit_seconds=res.seconds)
+                        v = {**val, "x": valid[list(model.variables)].to_numpy(dtype=float)}
+                    else:
+                        def fit(k=k, y=y):
+                            return fit_baseline(k, x, y, mans, folds, scaling, args)
+                        v = {**val, "x": valid[variables].to_numpy(dtype=float)}
+                    t0 = time.perf_counter()
+                    r = measure(k, c, None, v, args, Path(tmp), fit=fit)
+                    results[c][k] = r
+                    log(f"{aircraft} {c:>2} {k:<14} " + (
+                        f"skipped: {r['skipped']}" if "skipped" in r else
+                        f"RMS vs truth {r['rms_true']:.3e} ({r['rms_true'] / r['noise_rms']:.2f}"
+                        f" x noise)  fit {r['fit_s']:.1f} s  [{time.perf_counter() - t0:.0f} s]"
+                        f"  {r['note']}"))
+        data_note = (f"cached ({note['cached']})" if "cached" in note else
+                     f"simulated in {note['simulate_s']} s, reconstructed in "
+                     f"{note['reconstruct_s']} s, {note['rejected']} maneuvers rejected")
+        context = {
+            "title": f"## {aircraft}", "full": True,
+            "command": "python benchmarks/bench_compare.py " + " ".join(args.argv),
+            "notes": [
+                f"Data: {aircraft}, {args.maneuvers} maneuvers ({args.design} design), seed "
+                f"{args.seed}, flown between the default grid's conditions "
+                f"(`ConditionGrid.between`), reconstructed with the IEKF + RTS smoother "
+                f"({data_note}).",
+                f"Split and envelope as `identify` makes them: "
+                f"{ident['maneuver'].nunique()} identification maneuvers "
+                f"({len(ident):,} samples); scored on the validation samples `identify` "
+                "scores (`inside_<C>`: in a covered envelope cell, a kept simplex and the "
+                "identified box of the spline model): " + ", ".join(
+                    f"{c} {int(valid_all[f'inside_{c}'].sum()):,}" for c in results)
+                + f" of {len(valid_all):,}.",
+                f"Inputs of every other type: the full candidate set {variables}, scaled to "
+                "the identification data's unit box and clamped to it. The spline defaults "
+                "choose their variables from the same set by their own search.",
+                f"The default identification took {identify_s:.0f} s for all coefficients "
+                f"(`--workers {args.workers}`); its per-coefficient fit time is the "
+                "coefficient's search + fit (coefficients ran in parallel).",
+            ],
+        }
+        sections.append(markdown(results, context).replace("\n## ", "\n### ")
+                        .replace("\n### " + aircraft, "\n## " + aircraft))
+        if args.out is not None:            # each aircraft's section as soon as it is done
+            _atomic_text(args.out, "\n".join(sections))
+    total = time.perf_counter() - t_start
+    import lightgbm
+    head = [
+        "# Model types compared on the full candidate set (issue 19)", "",
+        f"Command: `python benchmarks/bench_compare.py {' '.join(args.argv)}`", "",
+        f"- Machine: {os.cpu_count()} cores, shared with other jobs (load average "
+        f"{load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end); BLAS limited to "
+        f"one thread for the baselines. Total run time {total / 60:.1f} min.",
+        f"- Versions: simplexspline {simplexspline.__version__}, numpy {np.__version__}, "
+        f"scipy {scipy.__version__}, scikit-learn {sklearn.__version__}, lightgbm "
+        f"{lightgbm.__version__}, Python {sys.version.split()[0]}; "
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.", ""]
+    return "\n".join(head) + "\n" + "\n".join(sections)
 
 
 # ----------------------------------------------------------------------------- main
@@ -428,19 +652,47 @@ def main(argv=None) -> int:
     ap.add_argument("--rbf-points", type=int, default=3000)
     ap.add_argument("--mlp-samples", type=int, default=100_000)
     ap.add_argument("--mlp-epochs", type=int, default=60)
+    ap.add_argument("--ebm-samples", type=int, default=5_000)
+    ap.add_argument("--candidates", choices=("full", "paper"), default="full",
+                    help="full: every type on the full candidate set, several aircraft "
+                         "(issue 19); paper: the paper preset's variables, F-16 (issue 7)")
+    ap.add_argument("--aircraft", default="f16,c172p",
+                    help="aircraft of the full comparison (%(default)s)")
+    ap.add_argument("--design", choices=("paper", "alternative"), default="paper",
+                    help="maneuver design of the full comparison's campaigns")
     ap.add_argument("--quick", action="store_true",
                     help="smoke run: 20 maneuvers, small RBF and MLP, no repeats")
     args = ap.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
+    args.aircraft = [a.strip() for a in args.aircraft.split(",") if a.strip()]
+    full = args.candidates == "full"
+    if full:
+        if "--maneuvers" not in args.argv:
+            args.maneuvers = 40
+        if "--seed" not in args.argv:
+            args.seed = 101
+        if "--models" not in args.argv:
+            args.models = ",".join(FULL_TYPES)
     if args.quick:
         args.maneuvers = min(args.maneuvers, 20)
         args.rbf_points, args.mlp_samples, args.mlp_epochs, args.repeats = 500, 20_000, 5, 1
     coefs = [c.strip() for c in args.coefficients.split(",") if c.strip()]
     kinds = [k.strip() for k in args.models.split(",") if k.strip()]
-    bad = [c for c in coefs if c not in COEFFICIENTS] + [k for k in kinds
-                                                          if k not in MODEL_TYPES]
+    known = FULL_TYPES if full else MODEL_TYPES
+    bad = [c for c in coefs if c not in COEFFICIENTS] + [k for k in kinds if k not in known]
     if bad:
         ap.error(f"unknown coefficient(s)/model type(s) {bad}; known: {list(COEFFICIENTS)}, "
-                 f"{list(MODEL_TYPES)}")
+                 f"{list(known)}")
+    if full:
+        def log(msg):
+            print(msg, file=sys.stderr, flush=True)
+
+        text = run_full(args, kinds, coefs, log)
+        print(text)
+        if args.out is not None:
+            _atomic_text(args.out, text)
+            log(f"written {args.out}")
+        return 0
 
     from threadpoolctl import threadpool_limits
 
