@@ -44,17 +44,24 @@ def test_a_failed_write_keeps_the_old_pair(tmp_path, monkeypatch):
     assert _listing(tmp_path) == ["t.csv", "t.csv.json"]
 
 
-def test_a_failed_rename_puts_the_first_file_back(tmp_path, monkeypatch):
-    a, b = tmp_path / "t.npz", tmp_path / "t.npz.json"
-    write_together({a: b"old table", b: b"old sidecar"})
+def _fail_second_rename(monkeypatch, second):
+    """Make the rename of a temporary onto ``second`` fail (EIO); returns the real
+    ``os.replace``."""
     real = os.replace
 
     def second_rename_fails(src, dst):
-        if str(dst) == str(b) and str(src).endswith(".tmp"):
+        if str(dst) == str(second) and str(src).endswith(".tmp"):
             raise OSError(5, "Input/output error")
         return real(src, dst)
 
     monkeypatch.setattr(os, "replace", second_rename_fails)
+    return real
+
+
+def test_a_failed_rename_puts_the_first_file_back(tmp_path, monkeypatch):
+    a, b = tmp_path / "t.npz", tmp_path / "t.npz.json"
+    write_together({a: b"old table", b: b"old sidecar"})
+    real = _fail_second_rename(monkeypatch, b)
     with pytest.raises(OSError, match="Input/output"):
         write_together({a: b"new table", b: b"new sidecar"})
     assert (a.read_bytes(), b.read_bytes()) == (b"old table", b"old sidecar")
@@ -211,14 +218,7 @@ def test_a_run_killed_between_renames_is_rolled_back_by_the_next(tmp_path, monke
     assert (a.read_bytes(), b.read_bytes()) == (b"new table", b"old sidecar")
     assert sum(p.name.endswith(".old") for p in tmp_path.iterdir()) == 2
 
-    real = os.replace
-
-    def second_rename_fails(src, dst):
-        if str(dst) == str(b) and str(src).endswith(".tmp"):
-            raise OSError(5, "Input/output error")
-        return real(src, dst)
-
-    monkeypatch.setattr(os, "replace", second_rename_fails)
+    real = _fail_second_rename(monkeypatch, b)
     with pytest.raises(OSError, match="Input/output"):
         write_together({a: b"third table", b: b"third sidecar"})
     assert (a.read_bytes(), b.read_bytes()) == (b"old table", b"old sidecar")
