@@ -345,7 +345,8 @@ def _fmt_bytes(b: int) -> str:
 def markdown(results: dict, context: dict) -> str:
     """The report: context, the accuracy table, the cost table, per-coefficient details."""
     coefs = list(results)
-    order = dict.fromkeys((*MODEL_TYPES, *FULL_TYPES))
+    order = dict.fromkeys((*FULL_TYPES, *MODEL_TYPES) if context.get("full")
+                          else (*MODEL_TYPES, *FULL_TYPES))
     kinds = [k for k in order if any(k in results[c] for c in coefs)]
     lines = [context.get("title", "# Model types compared on a simulated F-16 campaign"), "",
              f"Command: `{context['command']}`", ""]
@@ -461,17 +462,10 @@ def markdown(results: dict, context: dict) -> str:
 
 
 def _atomic_text(path: Path, text: str) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
-                               dir=path.resolve().parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    """Write ``text`` atomically with the mode a plain file gets (the package's helper)."""
+    from simplexspline._files import write_text
+
+    write_text(path, text)
 
 
 # ----------------------------------------------------------------------------- full
