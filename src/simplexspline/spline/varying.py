@@ -53,6 +53,18 @@ __all__ = ["TermGrams", "VaryingCoefficientSpace", "VaryingNormalEquations",
 CHUNK = 1 << 16
 
 
+def _located(tri, pts: np.ndarray) -> np.ndarray:
+    """The simplex of every data point, shape (N,); OutsideDomainError naming the rows
+    that lie outside ``tri``."""
+    sid = tri.locate(pts)
+    out = np.nonzero(sid < 0)[0]
+    if len(out):
+        raise OutsideDomainError(
+            f"{len(out)} of {len(pts)} points lie outside the triangulation (first rows: "
+            f"{out[:5].tolist()}); drop them or enlarge the triangulation", out)
+    return sid
+
+
 def _multipliers(m, npts: int, nterms: int) -> np.ndarray:
     """Validated multipliers, shape (N, K) float."""
     arr = np.asarray(m, dtype=float)
@@ -208,12 +220,7 @@ class VaryingNormalEquations(BlockSums):
         vals = as_values(y, len(pts))
         mult = _multipliers(m, len(pts), self.nterms)
         w = as_weights(weights, len(pts))
-        sid = tri.locate(pts)
-        out = np.nonzero(sid < 0)[0]
-        if len(out):
-            raise OutsideDomainError(
-                f"{len(out)} of {len(pts)} points lie outside the triangulation (first rows: "
-                f"{out[:5].tolist()}); drop them or enlarge the triangulation", out)
+        sid = _located(tri, pts)
         with kernels.one_blas_thread():
             for s in range(0, len(pts), CHUNK):
                 e = s + CHUNK
@@ -306,12 +313,7 @@ class TermGrams:
         pts = as_points(z, name="z", ndim=triangulation.ndim)
         vals = as_values(y, len(pts))
         w = as_weights(weights, len(pts))
-        sid = triangulation.locate(pts)
-        out = np.nonzero(sid < 0)[0]
-        if len(out):
-            raise OutsideDomainError(
-                f"{len(out)} of {len(pts)} points lie outside the triangulation (first rows: "
-                f"{out[:5].tolist()}); drop them or enlarge the triangulation", out)
+        sid = _located(triangulation, pts)
         #: Sample order sorted by simplex (stable), shape (N,).
         self.order = np.argsort(sid, kind="stable")
         sid_s = sid[self.order]
