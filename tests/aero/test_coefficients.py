@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from simplexspline.aero import aerodynamic_coefficients, angular_accelerations, midpoint_derivative
-from simplexspline.aero.data.coefficients import THRUST_COLUMNS
+from simplexspline.aero.data.coefficients import THRUST_COLUMNS, transfer_moments
 from simplexspline.aero.data.thrust import ThrustModel
 from simplexspline.aero.variables import COEFFICIENTS
 from simplexspline.errors import FlightDataError, InputError
@@ -21,6 +21,13 @@ def relative_rms_table(data: pd.DataFrame) -> pd.DataFrame:
         span = float(data["true_" + c].max() - data["true_" + c].min())
         rows[c] = {"rms": rms, "range": span, "relative_rms_%": 100 * rms / span}
     return pd.DataFrame.from_dict(rows, orient="index")
+
+
+def with_truth(coef: pd.DataFrame, data: pd.DataFrame) -> pd.DataFrame:
+    """The coefficients beside the truth; the truth about the coefficients' moment
+    reference point where they carry it (a moving c.g.)."""
+    truth = data.filter(like="true_").drop(columns=list(coef.columns), errors="ignore")
+    return pd.concat([coef, truth], axis=1)
 
 
 def test_ideal_sensors_reproduce_true_coefficients(ideal_campaign):
@@ -50,7 +57,7 @@ def test_differentiated_accelerations_on_ideal_data(ideal_campaign):
     np.testing.assert_allclose(acc[inner], ideal_campaign[["pdot", "qdot", "rdot"]]
                                .to_numpy()[inner], atol=1e-9)
     coef, _ = aerodynamic_coefficients(ideal_campaign, accelerations="differentiate")
-    table = relative_rms_table(pd.concat([coef, ideal_campaign.filter(like="true_")], axis=1))
+    table = relative_rms_table(with_truth(coef, ideal_campaign))
     assert (table["relative_rms_%"] < 1.0).all(), table
 
 
@@ -65,7 +72,7 @@ def test_coefficient_accuracy_from_reconstructed_data(noisy_reconstruction, caps
 def test_coefficient_accuracy_with_differentiated_rates(noisy_campaign, noisy_reconstruction):
     data = noisy_reconstruction.data.drop(columns=["pdot", "qdot", "rdot"])
     coef, _ = aerodynamic_coefficients(data)
-    table = relative_rms_table(pd.concat([coef, data.filter(like="true_")], axis=1))
+    table = relative_rms_table(with_truth(coef, data))
     assert (table["relative_rms_%"] <= 1.0).all(), table
 
 
@@ -140,3 +147,88 @@ def test_thrust_model_of_fan_speed_density_and_mach():
         ThrustModel.from_config({"input": "n1", "coefficients": [1], "sfc": 2})
     with pytest.raises(FlightDataError, match="needs column 'n1'"):
         model(df.drop(columns=["n1"]))
+
+
+def test_transfer_moments_is_the_moment_of_the_forces_about_the_new_point():
+    """Point forces F_i at p_i: the moment about P from the one about G and the total."""
+    rng = np.random.default_rng(3)
+    b, cbar, qs = 9.1, 3.4, 2.0e4
+    points, forces = rng.normal(size=(5, 3)), rng.normal(size=(5, 3)) * 1e3
+    G, P = np.array([0.3, -0.02, 0.1]), np.array([-0.5, 0.01, -0.2])
+    scale = qs * np.array([b, cbar, b])
+    about = {name: np.cross(points - at, forces).sum(axis=0) / scale
+             for name, at in (("G", G), ("P", P))}
+    moved = transfer_moments(forces.sum(axis=0)[None] / qs, about["G"][None], G - P, b, cbar)
+    np.testing.assert_allclose(moved[0], about["P"], rtol=1e-12, atol=1e-15)
+
+
+def test_lift_behind_the_reference_point_pitches_the_nose_down():
+    """CZ < 0 (lift) at a c.g. 0.1 m aft of the point: Cm about the point drops by
+    0.1 |CZ| / cbar."""
+    moved = transfer_moments([[0.0, 0.0, -0.5]], [[0.0, 0.0, 0.0]], [-0.1, 0.0, 0.0],
+                             10.0, 2.0)
+    np.testing.assert_allclose(moved, [[0.0, -0.025, 0.0]])
+
+
+def _moving_cg(df, dx=0.05, dz=0.02):
+    """``df`` with the c.g. moved per maneuver (as fuel burn does)."""
+    out = df.copy()
+    k = out["maneuver"].to_numpy() % 3
+    out["x_cg"], out["y_cg"], out["z_cg"] = -dx * k, 0.0, dz * k
+    return out
+
+
+def test_moments_of_a_moving_cg_are_transferred_to_one_fixed_point(ideal_campaign):
+    df = _moving_cg(ideal_campaign)
+    coef, _ = aerodynamic_coefficients(df, accelerations="measured")
+    ref = coef.attrs["moment_reference"]
+    assert ref["source"] == "the median c.g. of the data"
+    np.testing.assert_allclose(ref["point_m"], np.median(df[["x_cg", "y_cg", "z_cg"]],
+                                                         axis=0))
+    arm = df[["x_cg", "y_cg", "z_cg"]].to_numpy() - ref["point_m"]
+    true = df[[f"true_{c}" for c in COEFFICIENTS]].to_numpy()
+    expected = transfer_moments(true[:, :3], true[:, 3:], arm, df.attrs["b"], df.attrs["cbar"])
+    for j, c in enumerate(("Cl", "Cm", "Cn")):
+        # the measured moments and the truth are about the same point
+        np.testing.assert_allclose(coef[c], coef[f"true_{c}"], atol=1e-6)
+        np.testing.assert_allclose(coef[f"true_{c}"], expected[:, j], rtol=1e-12)
+    assert np.abs(coef["true_Cm"] - df["true_Cm"]).max() > 1e-3   # the transfer matters
+    for c in ("CX", "CY", "CZ"):                                    # forces do not move
+        np.testing.assert_allclose(coef[c], df[f"true_{c}"], atol=1e-6)
+
+
+def test_a_given_moment_reference_point_is_used(ideal_campaign):
+    df = _moving_cg(ideal_campaign)
+    meta = {**df.attrs, "moment_reference_m": [0.0, 0.0, 0.0]}
+    coef, _ = aerodynamic_coefficients(df, meta, accelerations="measured")
+    assert coef.attrs["moment_reference"] == {"point_m": [0.0, 0.0, 0.0],
+                                              "source": "metadata moment_reference_m"}
+    cbar = df.attrs["cbar"]
+    expected = df["true_Cm"] + (df["z_cg"] * df["true_CX"] - df["x_cg"] * df["true_CZ"]) / cbar
+    np.testing.assert_allclose(coef["Cm"], expected, atol=1e-6)
+    with pytest.raises(InputError, match="moment_reference_m must be three finite numbers"):
+        aerodynamic_coefficients(df, {**df.attrs, "moment_reference_m": [0.0, 1.0]})
+
+
+def test_cg_columns_without_forces_or_with_gaps_are_reported(ideal_campaign):
+    df = _moving_cg(ideal_campaign)
+    coef, _ = aerodynamic_coefficients(df.drop(columns=["ax", "ay", "az"]),
+                                       accelerations="measured")
+    assert coef.attrs["moment_reference"]["point_m"] is None
+    assert "NOT transferred" in coef.attrs["moment_reference"]["source"]
+    np.testing.assert_allclose(coef["Cm"], df["true_Cm"], atol=1e-6)
+    gap = df.copy()
+    gap.loc[gap.index[5], "x_cg"] = np.nan
+    with pytest.raises(FlightDataError, match="x_cg, y_cg, z_cg hold NaN"):
+        aerodynamic_coefficients(gap, accelerations="measured")
+
+
+def test_campaigns_record_the_cg_that_fuel_burn_moves(noisy_campaign, ideal_campaign):
+    """Sensors fixed to the airframe: the table carries the c.g. from their reference point
+    (the full-fuel c.g.); it moves with the fuel, so it tracks the mass."""
+    assert not {"x_cg", "y_cg", "z_cg"} & set(ideal_campaign.columns)   # sensors at the c.g.
+    per = noisy_campaign.groupby("maneuver")[["x_cg", "z_cg", "mass"]].median()
+    assert per["x_cg"].abs().max() < 0.2 and per["x_cg"].max() - per["x_cg"].min() > 0.01
+    assert abs(np.corrcoef(per["x_cg"], per["mass"])[0, 1]) > 0.99
+    ref = noisy_campaign.attrs["simulator"]["sensor_reference"]
+    assert "full fuel" in ref["point"] and len(ref["jsbsim_structural_in"]) == 3

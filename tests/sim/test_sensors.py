@@ -149,6 +149,37 @@ def test_imu_lever_arm_adds_rotational_accelerations(rng):
                        atol=1e-12)
 
 
+def test_sensors_fixed_to_the_airframe_see_the_cg_move(rng):
+    """Positions are from the reference point: a c.g. shifted by ``cg`` puts the IMU and the
+    vanes at ``position - cg`` from it, sample by sample."""
+    true, t = _flight()
+    ideal = {ch: 0.0 for ch in MEASURED_CHANNELS}
+    imu, boom = np.array([0.6, 0.05, 0.2]), [4.0, 0.0, -0.4]
+    cg = np.column_stack([0.03 + 0.01 * np.sin(t), np.zeros(t.size), np.full(t.size, 0.02)])
+    fixed = SensorModel(noise_std=ideal, bias=ideal, imu_position_m=imu,
+                        alpha_vane={"position_m": boom})
+    out = fixed.apply(true, t, rng, cg=cg)
+    w = np.column_stack([true["p"], true["q"], true["r"]])
+    wd = np.column_stack([true["pdot"], true["qdot"], true["rdot"]])
+    a = np.column_stack([true["ax"], true["ay"], true["az"]])
+    arm = imu - cg
+    expected = a + np.cross(wd, arm) + np.cross(w, np.cross(w, arm))
+    assert np.allclose(np.column_stack([out["ax"], out["ay"], out["az"]]), expected,
+                       atol=1e-12)
+    k = 377                                     # one sample: a model placed at that arm
+    at_k = SensorModel(noise_std=ideal, bias=ideal, imu_position_m=tuple(arm[k]),
+                       alpha_vane={"position_m": list(np.asarray(boom) - cg[k])})
+    one = {ch: v[k:k + 1] for ch, v in true.items()}
+    assert np.isclose(at_k.apply(one, t[k:k + 1], rng)["alpha"][0], out["alpha"][k],
+                      rtol=0, atol=1e-15)
+    # default sensors at the reference point see the c.g. move; ideal ones follow it
+    moved = SensorModel(noise_std=ideal, bias=ideal).apply(true, t, rng, cg=cg)
+    assert np.abs(moved["az"] - true["az"]).max() > 1e-3
+    assert not np.array_equal(moved["alpha"], true["alpha"])
+    assert SensorModel.ideal().at_cg and not SensorModel().at_cg
+    assert SensorModel.from_dict(SensorModel.ideal().to_dict()).at_cg
+
+
 def test_sensor_geometry_metadata_follows_the_schema():
     from simplexspline.aero.data.flight_data import sensor_geometry
 

@@ -427,7 +427,7 @@ def _coefficient_data(df, meta: dict, settings: IdentificationSettings, progress
     rec = reconstruct(df, meta, workers=settings.workers, progress=progress)
     note = {"reconstructed": True, "rejected": {int(k): v for k, v in rec.rejected.items()},
             "thrust_subtracted": rec.thrust_subtracted, "accelerations": rec.accelerations,
-            "summary": rec.summary()}
+            "moment_reference": rec.moment_reference, "summary": rec.summary()}
     return rec.data, note
 
 

@@ -365,6 +365,9 @@ class Campaign:
                 "fuel_fraction": float(design_rng.uniform(*profile.fuel_fraction)),
                 "seed": int(self.seed), "min_kept_s": float(protocol.min_kept_s),
                 "pilot": protocol.pilot.to_dict(), "scratch": scratch,
+                # the sensor-geometry reference point: the c.g. with full fuel (the same
+                # at every trimmed condition); x_cg, y_cg, z_cg are measured from it
+                "cg_reference_in": list(usable[0]["cg_in"]),
             })
             if self.wind is not None:  # its own stream: still-air campaigns are unchanged
                 specs[-1]["wind"] = self.wind.draw(np.random.default_rng(

@@ -99,6 +99,12 @@ def assemble(results: list, conditions: list, st: dict, campaign):
                 "pilot_style": protocol.pilot.to_dict(),
             },
             "sensors": sensors.to_dict(),
+            "sensor_reference": (
+                "the moving c.g. (sensors at the c.g.; no c.g. columns)" if sensors.at_cg else
+                {"point": "the c.g. with full fuel; x_cg, y_cg, z_cg and the sensor positions "
+                          "are measured from it",
+                 "jsbsim_structural_in": next((c["cg_in"] for c in conditions
+                                               if c.get("trimmed")), None)}),
             "wind": None if campaign.wind is None else campaign.wind.to_dict(),
             "envelope": env.to_dict(),
             "actuators": {name: {"limit_rad": s.limit, "rate_rad_s": s.rate, "tau_s": s.tau}

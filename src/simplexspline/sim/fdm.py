@@ -44,6 +44,8 @@ RECORD: tuple[str, ...] = (
     "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps",
     "atmosphere/total-wind-north-fps", "atmosphere/total-wind-east-fps",
     "atmosphere/total-wind-down-fps",
+    # the c.g. in JSBSim's structural frame (x aft, y right, z up) [in]: fuel burn moves it
+    "inertia/cg-x-in", "inertia/cg-y-in", "inertia/cg-z-in",
 )
 #: JSBSim models switched off after the trim because they contribute exactly nothing here
 #: (outputs stay bit-identical; a step gets about 40 % cheaper): ground reactions are zero

@@ -53,7 +53,9 @@ def trim_condition(spec: dict) -> dict:
     -------
     dict
         ``condition``, ``h_m``, ``tas_mps``, ``trimmed`` (bool), ``reason`` and, if
-        trimmed, ``alpha``, ``mach``, ``de``, ``throttle`` at the trim point.
+        trimmed, ``alpha``, ``mach``, ``de``, ``throttle`` at the trim point and ``cg_in``,
+        the c.g. with the model's full fuel load (JSBSim's structural frame [in]): the
+        campaign's sensor-geometry reference point.
     """
     profile = _profile(spec["profile"])
     out = {"condition": spec["condition"], "h_m": spec["h_m"], "tas_mps": spec["tas_mps"],
@@ -82,6 +84,7 @@ def trim_condition(spec: dict) -> dict:
         out["reason"] = f"trim throttle {thr:.2f} leaves no margin to hold airspeed"
     else:
         out["trimmed"] = True
+    out["cg_in"] = [s[IDX[f"inertia/cg-{a}-in"]] for a in "xyz"]
     return out
 
 
@@ -305,9 +308,16 @@ def _columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dict,
         "ve_gps": col["velocities/v-east-fps"] * u.FT,
         "vd_gps": col["velocities/v-down-fps"] * u.FT,
     }
+    # the c.g. from the sensor-geometry reference point (the full-fuel c.g.), body axes
+    # (x forward, y right, z down) from JSBSim's structural frame (x aft, y right, z up)
+    # (sensors that follow the c.g. see none of it, and the table gets no c.g. columns)
+    ref = spec["cg_reference_in"]
+    cg = None if sensors.at_cg else np.column_stack(
+        [-(col["inertia/cg-x-in"] - ref[0]) * u.IN, (col["inertia/cg-y-in"] - ref[1]) * u.IN,
+         -(col["inertia/cg-z-in"] - ref[2]) * u.IN])
     ss = np.random.SeedSequence(spec["seed"], spawn_key=(1, spec["index"]))
     noise_rng = np.random.default_rng(ss.spawn(2)[1])
-    measured = sensors.apply(true, t, noise_rng)
+    measured = sensors.apply(true, t, noise_rng, cg=cg)
     qs = qbar * S
     cx = col["forces/fbx-aero-lbs"] * u.LBF / qs
     cy = col["forces/fby-aero-lbs"] * u.LBF / qs
@@ -331,6 +341,8 @@ def _columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dict,
         "flap": surf[:, 3] * spec["profile"]["flap_scale"],
         "condition": np.full(n, spec["condition"], dtype=np.int64),
     })
+    if cg is not None:
+        out.update(x_cg=cg[:, 0], y_cg=cg[:, 1], z_cg=cg[:, 2])
     for ch, x in true.items():
         out["true_" + ch] = x
     out.update({

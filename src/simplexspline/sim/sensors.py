@@ -7,7 +7,10 @@ pure time lag (linear interpolation; the first value is held before the maneuver
 may sit elsewhere (sensor geometry, as metadata ``sensor_geometry`` of the flight-data
 schema describes it): a vane reads ``scale * (flow angle of the local air velocity
 V + omega x r) + offset``, the accelerometers the specific force at their position,
-``a_cg + omegadot x r + omega x (omega x r)``.
+``a_cg + omegadot x r + omega x (omega x r)``. ``r`` is the sensor's position from the
+c.g.: sensors are fixed to the airframe, their positions are measured from the
+sensor-geometry reference point (in the simulated campaigns the c.g. with full fuel), and
+fuel burn moves the c.g. (columns ``x_cg, y_cg, z_cg``) against them.
 The defaults are of the order of a flight-test instrumentation package with a
 navigation-grade IMU, vanes on a nose boom and a GPS receiver; they are listed in
 ``docs/flight-data-schema.md`` and written into every campaign's metadata.
@@ -93,11 +96,16 @@ class SensorModel:
         Pure time lag per channel [s]; default zero everywhere.
     alpha_vane, beta_vane : mapping, optional
         Vane geometry and calibration as in metadata ``sensor_geometry`` of the flight-data
-        schema: ``position_m`` (x forward, y right, z down from the c.g.) [m], ``scale`` [-]
-        and ``offset_rad`` [rad]; default at the c.g., calibrated. The known ``offset_rad``
-        is recorded in the metadata; ``bias`` stays unknown.
+        schema: ``position_m`` (x forward, y right, z down from the reference point) [m],
+        ``scale`` [-] and ``offset_rad`` [rad]; default at the reference point, calibrated.
+        The known ``offset_rad`` is recorded in the metadata; ``bias`` stays unknown.
     imu_position_m : (3,) sequence of float, optional
-        Accelerometer position from the c.g. [m] (default at the c.g.).
+        Accelerometer position from the reference point [m] (default at it).
+    at_cg : bool
+        The sensors follow the c.g. (an idealisation: the positions are from the moving
+        c.g.; a campaign then writes no c.g. columns, and the moments stay about the c.g.).
+        Default False: the sensors are fixed to the airframe and their positions are from
+        the sensor-geometry reference point, the c.g. with full fuel in a simulated campaign.
 
     Examples
     --------
@@ -113,6 +121,7 @@ class SensorModel:
     alpha_vane: Mapping | None = None
     beta_vane: Mapping | None = None
     imu_position_m: tuple | None = None
+    at_cg: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "noise_std", _complete(self.noise_std, DEFAULT_NOISE_STD,
@@ -137,9 +146,9 @@ class SensorModel:
 
     @classmethod
     def ideal(cls) -> SensorModel:
-        """Perfect sensors: no noise, no bias, no lag (measured == true)."""
+        """Perfect sensors at the c.g.: no noise, no bias, no lag (measured == true)."""
         zero = {ch: 0.0 for ch in MEASURED_CHANNELS}
-        return cls(noise_std=zero, bias=zero, lag_s=zero)
+        return cls(noise_std=zero, bias=zero, lag_s=zero, at_cg=True)
 
     @classmethod
     def real_like(cls) -> SensorModel:
@@ -159,7 +168,7 @@ class SensorModel:
             noise_std={k: noise * v for k, v in self.noise_std.items()},
             bias={k: bias * v for k, v in self.bias.items()},
             lag_s=dict(self.lag_s), alpha_vane=self.alpha_vane, beta_vane=self.beta_vane,
-            imu_position_m=self.imu_position_m,
+            imu_position_m=self.imu_position_m, at_cg=self.at_cg,
         )
 
     @property
@@ -188,15 +197,17 @@ class SensorModel:
         """Plain-data form (for metadata and worker processes)."""
         return {"noise_std": dict(self.noise_std), "bias": dict(self.bias),
                 "lag_s": dict(self.lag_s), "alpha_vane": dict(self.alpha_vane),
-                "beta_vane": dict(self.beta_vane), "imu_position_m": list(self.imu_position_m)}
+                "beta_vane": dict(self.beta_vane), "imu_position_m": list(self.imu_position_m),
+                "at_cg": self.at_cg}
 
     @classmethod
     def from_dict(cls, d: Mapping) -> SensorModel:
         return cls(noise_std=d.get("noise_std"), bias=d.get("bias"), lag_s=d.get("lag_s"),
                    alpha_vane=d.get("alpha_vane"), beta_vane=d.get("beta_vane"),
-                   imu_position_m=d.get("imu_position_m"))
+                   imu_position_m=d.get("imu_position_m"), at_cg=bool(d.get("at_cg", False)))
 
-    def sensed(self, true: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def sensed(self, true: Mapping[str, np.ndarray],
+               cg: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """What vanes and accelerometers away from the c.g. see, before lag, bias and noise.
 
         Parameters
@@ -204,6 +215,10 @@ class SensorModel:
         true : mapping of str to (n,) ndarray
             True ``alpha``, ``beta`` [rad], ``tas`` [m/s], ``p, q, r`` [rad/s],
             ``pdot, qdot, rdot`` [rad/s^2] and ``ax, ay, az`` [m/s^2] at the c.g.
+        cg : (n, 3) ndarray, optional
+            The c.g. from the sensor-geometry reference point, body axes [m] (the sensor
+            positions are measured from that point; fuel burn moves the c.g. against
+            them). Default: the sensors' positions are from the c.g.
 
         Returns
         -------
@@ -213,10 +228,16 @@ class SensorModel:
         a, b, V = (np.asarray(true[k], dtype=float) for k in ("alpha", "beta", "tas"))
         p, q, r = (np.asarray(true[k], dtype=float) for k in ("p", "q", "r"))
         u, v, w = V * np.cos(a) * np.cos(b), V * np.sin(b), V * np.sin(a) * np.cos(b)
+        cg = np.zeros((1, 3)) if cg is None else np.asarray(cg, dtype=float).reshape(-1, 3)
+
+        def arm(position):  # the sensor's position from the c.g., per sample
+            d = np.asarray(position, dtype=float) - cg
+            return d[:, 0], d[:, 1], d[:, 2], bool(np.any(d))
+
         out = {}
         for name, vane in (("alpha", self.alpha_vane), ("beta", self.beta_vane)):
-            x, y, z = vane["position_m"]
-            if x or y or z:
+            x, y, z, away = arm(vane["position_m"])
+            if away:
                 ul, vl, wl = u + q * z - r * y, v + r * x - p * z, w + p * y - q * x
                 angle = (np.arctan2(wl, ul) if name == "alpha"
                          else np.arcsin(vl / np.sqrt(ul * ul + vl * vl + wl * wl)))
@@ -224,7 +245,7 @@ class SensorModel:
                 angle = a if name == "alpha" else b
             out[name] = (angle if vane["scale"] == 1.0 and not vane["offset_rad"]
                          else vane["scale"] * angle + vane["offset_rad"])
-        x, y, z = self.imu_position_m
+        x, y, z, _ = arm(self.imu_position_m)
         pd_, qd, rd = (np.asarray(true[k], dtype=float) for k in ("pdot", "qdot", "rdot"))
         cx, cy, cz = q * z - r * y, r * x - p * z, p * y - q * x  # omega x r
         out["ax"] = np.asarray(true["ax"], dtype=float) + qd * z - rd * y + q * cz - r * cy
@@ -233,7 +254,8 @@ class SensorModel:
         return out
 
     def apply(self, true: Mapping[str, np.ndarray], t: np.ndarray,
-              rng: np.random.Generator) -> dict[str, np.ndarray]:
+              rng: np.random.Generator,
+              cg: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """Measured channels from true ones.
 
         Parameters
@@ -246,6 +268,8 @@ class SensorModel:
             Noise stream; one standard-normal vector is drawn per channel, in the order of
             :data:`MEASURED_CHANNELS`, whatever the settings (so changing one channel's
             noise does not change another's).
+        cg : (n, 3) ndarray, optional
+            The c.g. from the sensor-geometry reference point [m] (see :meth:`sensed`).
 
         Returns
         -------
@@ -253,7 +277,8 @@ class SensorModel:
         """
         out = {}
         n = len(t)
-        sensed = self.sensed(true) if self.has_geometry else {}
+        moved = cg is not None and bool(np.any(cg))
+        sensed = self.sensed(true, cg) if self.has_geometry or moved else {}
         for ch in MEASURED_CHANNELS:
             x = np.asarray(sensed.get(ch, true[ch]), dtype=float)
             white = rng.standard_normal(n)

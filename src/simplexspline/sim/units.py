@@ -20,6 +20,8 @@ LBF_FT = LBF * FT
 SLUG_FT3 = SLUG / FT**3
 #: Pa per lbf/ft^2.
 PSF = LBF / FT**2
+#: metres per inch (exact).
+IN = 0.0254
 #: m/s per knot (exact).
 KT = 1852.0 / 3600.0
 #: standard gravity [m/s^2] (used only to express load factors).

@@ -15,6 +15,22 @@ include thrust, as in the paper, and the result is flagged (``thrust_subtracted`
 ``Ixz`` has the sign of the paper (the schema's convention). Angular accelerations come from
 the ``pdot, qdot, rdot`` columns or, when absent (or on request), from the rates by smoothed
 differentiation (:func:`~simplexspline.aero.data.differentiation.midpoint_derivative`).
+
+Moment reference point: Eq. 46-48 give the moments about the c.g. When the c.g. moves
+(columns ``x_cg, y_cg, z_cg``: fuel burn, passengers), the same aircraft then has different
+moment coefficients from one maneuver to the next (a pitching moment ``-dx CZ / cbar`` for a
+c.g. shift ``dx``), which no function of the flight state can fit. The moments are therefore
+transferred to one fixed point (:func:`transfer_moments`), ``M_ref = M_cg + r x F`` with
+``r`` the c.g. from that point::
+
+    Cl_ref = Cl + (ry CZ - rz CY) / b
+    Cm_ref = Cm + (rz CX - rx CZ) / cbar
+    Cn_ref = Cn + (rx CY - ry CX) / b
+
+The point is metadata ``moment_reference_m`` (x, y, z [m] in the frame of the c.g. columns)
+when given, else the median c.g. of the data (the shortest transfer, so the least force
+noise enters the moments). True moment coefficients (``true_Cl, true_Cm, true_Cn``), when
+present, are transferred alike so that they stay comparable.
 """
 
 from __future__ import annotations
@@ -27,7 +43,8 @@ from simplexspline.aero.data.differentiation import derivative_by_maneuver
 from simplexspline.aero.variables import COEFFICIENTS, RATE_NAMES
 from simplexspline.errors import FlightDataError, InputError
 
-__all__ = ["THRUST_COLUMNS", "aerodynamic_coefficients", "angular_accelerations"]
+__all__ = ["THRUST_COLUMNS", "CG_COLUMNS", "aerodynamic_coefficients", "angular_accelerations",
+           "transfer_moments"]
 
 #: The name the deprecated path ``simplexspline.aero.coefficients`` forwards: use
 #: :data:`simplexspline.aero.variables.COEFFICIENTS`.
@@ -35,6 +52,8 @@ COEFFICIENT_NAMES = COEFFICIENTS
 #: Thrust forces [N] and moments [N m] subtracted when all six are present.
 THRUST_COLUMNS: tuple[str, ...] = ("thrust_x", "thrust_y", "thrust_z", "thrust_l", "thrust_m",
                                    "thrust_n")
+#: The c.g. from the sensor-geometry reference point, body axes [m].
+CG_COLUMNS: tuple[str, ...] = ("x_cg", "y_cg", "z_cg")
 _NEEDED = ("maneuver", "t", "tas", "rho", "p", "q", "r", "mass", "Ixx", "Iyy", "Izz", "Ixz")
 _ACCELEROMETERS = ("ax", "ay", "az")
 
@@ -57,6 +76,46 @@ def angular_accelerations(df, *, half_window: int = 8, degree: int = 4) -> np.nd
     return derivative_by_maneuver(df["maneuver"].to_numpy(), df["t"].to_numpy(dtype=float),
                                   df[["p", "q", "r"]].to_numpy(dtype=float),
                                   half_window=half_window, degree=degree)
+
+
+def transfer_moments(forces: np.ndarray, moments: np.ndarray, arm: np.ndarray, b: float,
+                     cbar: float) -> np.ndarray:
+    """Moment coefficients about another point: ``M_ref = M_cg + r x F``.
+
+    Parameters
+    ----------
+    forces : (n, 3) ndarray
+        ``CX, CY, CZ`` [-], the forces the moments belong to (aerodynamic, or with thrust
+        when the moments include it).
+    moments : (n, 3) ndarray
+        ``Cl, Cm, Cn`` [-] about the c.g.
+    arm : (3,) or (n, 3) ndarray
+        ``r``: the c.g. from the new reference point, body axes (x forward, y right,
+        z down) [m].
+    b, cbar : float
+        Span and mean aerodynamic chord [m].
+
+    Returns
+    -------
+    (n, 3) ndarray
+        ``Cl, Cm, Cn`` about the reference point.
+    """
+    F = np.asarray(forces, dtype=float)
+    r = np.broadcast_to(np.asarray(arm, dtype=float), F.shape)
+    rxF = np.cross(r, F)             # [m]: the moment arm times the force coefficients
+    return np.asarray(moments, dtype=float) + rxF / np.array([b, cbar, b])
+
+
+def _moment_reference(df, meta: Mapping, cg: np.ndarray) -> tuple[np.ndarray, str]:
+    """The fixed point the moments are transferred to, and where it came from."""
+    given = meta.get("moment_reference_m")
+    if given is not None:
+        ref = np.asarray(given, dtype=float)
+        if ref.shape != (3,) or not np.isfinite(ref).all():
+            raise InputError(f"metadata moment_reference_m must be three finite numbers "
+                             f"(x, y, z [m], the frame of x_cg, y_cg, z_cg), got {given!r}")
+        return ref, "metadata moment_reference_m"
+    return np.nanmedian(cg, axis=0), "the median c.g. of the data"
 
 
 def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
@@ -86,7 +145,11 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
     coefficients : pandas.DataFrame
         Columns ``CX, CY, CZ, Cl, Cm, Cn, phat, qhat, rhat`` (and ``pdot, qdot, rdot`` as
         used), same index as ``df``. Without accelerometers (``ax, ay, az`` absent or
-        entirely NaN) ``CX, CY, CZ`` are NaN: moment coefficients only.
+        entirely NaN) ``CX, CY, CZ`` are NaN: moment coefficients only. With c.g. columns
+        the moments are about a fixed reference point (module docstring), and so are the
+        columns ``true_Cl, true_Cm, true_Cn`` added when ``df`` has the truth;
+        ``coefficients.attrs["moment_reference"]`` says which point: ``point_m`` (x, y, z
+        [m], or None for the c.g.) and ``source``.
     thrust_subtracted : bool
         True when thrust was subtracted (the columns, or the thrust model); False when the
         coefficients include thrust (as in the paper).
@@ -152,4 +215,31 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
     rates = (p * b / (2 * V), q * c / (2 * V), r * b / (2 * V))
     out = {**dict(zip(COEFFICIENTS, coefficients)), **dict(zip(RATE_NAMES, rates)),
            "pdot": pd_, "qdot": qd, "rdot": rd}
-    return pd.DataFrame(out, index=df.index), bool(thrust)
+    reference = {"point_m": None, "source": "the c.g. (no c.g. columns)"}
+    if all(n in df.columns for n in CG_COLUMNS):
+        cg = df[list(CG_COLUMNS)].to_numpy(dtype=float)
+        forces = np.column_stack(coefficients[:3])
+        moments = np.column_stack(coefficients[3:])
+        usable = np.isfinite(moments).all(axis=1)
+        if not np.isfinite(cg[usable]).all():
+            raise FlightDataError("the c.g. columns x_cg, y_cg, z_cg hold NaN or inf where "
+                                  "the moments are known: fill them (the c.g. moves "
+                                  "slowly: interpolate) or drop the columns")
+        if not np.isfinite(forces[usable]).all():
+            reference["source"] = ("the c.g.: NOT transferred to a fixed point (no force "
+                                   "coefficients: no accelerometers), so a moving c.g. "
+                                   "stays in the moment coefficients")
+        else:
+            ref, source = _moment_reference(df, meta, cg[usable])
+            arm = cg - ref
+            moved = transfer_moments(forces, moments, arm, b, c)
+            out.update(zip(COEFFICIENTS[3:], moved.T))
+            truth = [f"true_{n}" for n in COEFFICIENTS]
+            if all(n in df.columns for n in truth):
+                true = df[truth].to_numpy(dtype=float)
+                moved = transfer_moments(true[:, :3], true[:, 3:], arm, b, c)
+                out.update(zip(truth[3:], moved.T))
+            reference = {"point_m": [float(v) for v in ref], "source": source}
+    result = pd.DataFrame(out, index=df.index)
+    result.attrs["moment_reference"] = reference
+    return result, bool(thrust)

@@ -699,6 +699,10 @@ class Reconstruction:
     lags_applied : dict of str to float
         Channel -> lag [s] undone before the filter (given in metadata plus estimated, see
         ``ReconstructionSettings.apply_estimated_lags``).
+    moment_reference : dict
+        The point ``Cl, Cm, Cn`` are about: ``point_m`` (x, y, z [m] in the frame of the
+        c.g. columns; None: the c.g.) and ``source``
+        (:func:`~simplexspline.aero.data.coefficients.aerodynamic_coefficients`).
     """
 
     data: object
@@ -710,6 +714,8 @@ class Reconstruction:
     settings: ReconstructionSettings
     thrust: str = "columns"
     lags_applied: dict = field(default_factory=dict)
+    moment_reference: dict = field(default_factory=lambda: {"point_m": None,
+                                                            "source": "the c.g."})
 
     def sensors(self) -> dict:
         """What the reconstruction gave for each missing or estimated quantity.
@@ -826,6 +832,11 @@ class Reconstruction:
                                                 "included": "INCLUDED (no thrust_* columns), "
                                                             "as in the paper"}[self.thrust]
                      + f"; angular accelerations {self.accelerations}")
+        ref = self.moment_reference
+        lines.append("moments about " + (
+            ref["source"] if ref.get("point_m") is None else
+            "the fixed point ({:.3f}, {:.3f}, {:.3f}) m ({}), not the moving c.g."
+            .format(*ref["point_m"], ref["source"])))
         for m, r in sorted(self.maneuvers.items()):
             if r["skipped"]:
                 lines.append(f"maneuver {m}: NaN measurement samples skipped {r['skipped']}")
@@ -1054,7 +1065,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                          thrust_subtracted=thrust,
                          accelerations="measured" if measured_acc else "differentiated",
                          unused_channels=unused, settings=settings, thrust=thrust_source,
-                         lags_applied=lags_applied)
+                         lags_applied=lags_applied,
+                         moment_reference=dict(coef.attrs["moment_reference"]))
     sensors = rec.sensors()
     meta["reconstruction"] = jsonable({
         "method": "iterated extended Kalman filter + RTS smoother (docs/reconstruction.md)",
@@ -1064,6 +1076,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         "unused_channels": unused, "sensors": sensors,
         "sensor_geometry_given": geometry["given"],
         "lags_applied_s": lags_applied,
+        "moment_reference": rec.moment_reference,
         "air_data_calibration": calibration,
         "maneuvers": {m: {k: r[k] for k in ("biases", "iterations", "innovations", "skipped",
                                             "held", "weak", "observability", "lags")}
