@@ -123,7 +123,9 @@ def simulate_maneuver(spec: dict) -> dict:
         ``wind`` (from :meth:`~simplexspline.sim.wind.Wind.draw`),
         ``psi_rad``, ``fuel_fraction``, ``seed`` (int), ``min_kept_s``, ``pilot`` (dict of
         :class:`~simplexspline.sim.pilot.PilotStyle`),
-        optional ``scratch``.
+        optional ``scratch`` and ``cg_reference_in`` (the sensor-geometry reference point,
+        JSBSim's structural frame [in]: the c.g. with full fuel from the campaign's trims;
+        without it the sensors sit at the c.g. and no c.g. columns are written).
 
     Returns
     -------
@@ -310,9 +312,10 @@ def _columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dict,
     }
     # the c.g. from the sensor-geometry reference point (the full-fuel c.g.), body axes
     # (x forward, y right, z down) from JSBSim's structural frame (x aft, y right, z up)
-    # (sensors that follow the c.g. see none of it, and the table gets no c.g. columns)
-    ref = spec["cg_reference_in"]
-    cg = None if sensors.at_cg else np.column_stack(
+    # (sensors that follow the c.g. see none of it, and the table gets no c.g. columns; a
+    # spec without the campaign's reference point places the sensors at the c.g. too)
+    ref = spec.get("cg_reference_in")
+    cg = None if sensors.at_cg or ref is None else np.column_stack(
         [-(col["inertia/cg-x-in"] - ref[0]) * u.IN, (col["inertia/cg-y-in"] - ref[1]) * u.IN,
          -(col["inertia/cg-z-in"] - ref[2]) * u.IN])
     ss = np.random.SeedSequence(spec["seed"], spawn_key=(1, spec["index"]))

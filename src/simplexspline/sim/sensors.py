@@ -153,8 +153,8 @@ class SensorModel:
     @classmethod
     def real_like(cls) -> SensorModel:
         """Default noise and biases plus the geometry of a real installation: vanes on a
-        nose boom 4 m ahead of the c.g. with 3-4 % scale errors and known offsets, the IMU
-        0.6 m ahead of and 0.2 m below the c.g., air-data lags (vanes 50 ms, airspeed 0.1 s,
+        nose boom 4 m ahead of the reference point (the full-fuel c.g.) with 3-4 % scale
+        errors and known offsets, the IMU 0.6 m ahead of and 0.2 m below it, air-data lags (vanes 50 ms, airspeed 0.1 s,
         altitude 0.2 s)."""
         boom = [4.0, 0.0, -0.4]
         return cls(alpha_vane={"position_m": boom, "scale": 1.04, "offset_rad": 0.5 * DEG},
