@@ -37,7 +37,7 @@ from simplexspline.spline import kernels
 
 from simplexspline.spline.fit.cholesky import SparseCholesky
 
-__all__ = ["POLICIES", "SolveInfo", "solve_constrained"]
+__all__ = ["POLICIES", "SolveInfo", "kkt_passes", "solve_constrained"]
 
 #: What to do when data and continuity leave coefficients undetermined.
 POLICIES = ("raise", "minnorm", "ridge")
@@ -510,22 +510,7 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
     K = spla.LinearOperator((M + m, M + m), matvec=kkt, dtype=float)
     rhs = np.concatenate([qg, np.zeros(m)])
     stable = None
-    # Passes over regularised KKT matrices (sigma, delta, GMRES after the refinement?):
-    # with conditions, one penalty KKT_DELTA and one KKT_DELTA_TIGHT; a pass that fails to
-    # converge hands over to the next. Dense (small) systems try KKT_DELTA first; sparse
-    # ones, where a second factorisation is what costs, the tight penalty (a few more
-    # refinement steps on well-conditioned conditions, 6 instead of 2 on a 3-D S^1_4 Kuhn
-    # grid, instead of a stall on nearly dependent ones). Last: the unregularised KKT
-    # matrix with pivoting (SuperLU).
-    sigma = KKT_SIGMA * scale
-    if not m:
-        passes = [(sigma, KKT_DELTA * scale, True)]
-    elif M <= DENSE_MAX:
-        passes = [(sigma, KKT_DELTA * scale, False), (sigma, KKT_DELTA_TIGHT * scale, True)]
-    else:
-        passes = [(sigma, KKT_DELTA_TIGHT * scale, False), (sigma, KKT_DELTA * scale, True)]
-    passes.append((0.0, KKT_DELTA * scale, True))
-    for sigma, delta, krylov in passes:
+    for sigma, delta, krylov in kkt_passes(M, m, scale):
         pre = None
         if sigma > 0 and M <= DENSE_MAX:
             pre = _dense_preconditioner(Qg, A, At, sigma, delta)
@@ -547,6 +532,37 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
         # of 1e10 and more) limits the coefficients, not the solver
         return stable[:M]
     raise singular
+
+
+def kkt_passes(M: int, m: int, scale: float) -> list[tuple[float, float, bool]]:
+    """The regularised KKT matrices ``[Qg + sigma I, A'; A, -delta I]`` to factorise, in
+    order, for a system of M coefficients and m conditions: ``(sigma, delta, krylov)``,
+    ``krylov`` whether the refinement may end in GMRES. One list for the fit and for its
+    covariance (:mod:`simplexspline.spline.uncertainty.covariance`).
+
+    With conditions, one pass with the penalty KKT_DELTA and one with KKT_DELTA_TIGHT; a
+    pass that fails to converge hands over to the next. Dense (small) systems try
+    KKT_DELTA first; sparse ones, where a second factorisation is what costs, the tight
+    penalty (a few more refinement steps on well-conditioned conditions, 6 instead of 2 on
+    a 3-D S^1_4 Kuhn grid, instead of a stall on nearly dependent ones). Last: the
+    unregularised KKT matrix with pivoting (sigma = 0: SuperLU).
+
+    Parameters
+    ----------
+    M, m : int
+        Coefficients (C^0-reduced) and condition rows.
+    scale : float
+        The mean diagonal of G'QG; the conditions' rows scaled to norm ``scale``.
+    """
+    sigma = KKT_SIGMA * scale
+    if not m:
+        passes = [(sigma, KKT_DELTA * scale, True)]
+    elif M <= DENSE_MAX:
+        passes = [(sigma, KKT_DELTA * scale, False), (sigma, KKT_DELTA_TIGHT * scale, True)]
+    else:
+        passes = [(sigma, KKT_DELTA_TIGHT * scale, False), (sigma, KKT_DELTA * scale, True)]
+    passes.append((0.0, KKT_DELTA * scale, True))
+    return passes
 
 
 def _backward_error(K, z, rhs, Qg, A) -> float:
