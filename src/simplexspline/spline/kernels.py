@@ -14,6 +14,8 @@ Kernels
 * :func:`basis_cols`: B-form basis values (d_hat, N), level by level over blocks of points.
 * :func:`evaluate`: barycentric coordinates, basis and the dot product with the simplex's
   coefficients fused, without materialising the basis matrix.
+* :func:`gradient`: the same for gradients (the degree d-1 basis, one de Casteljau step
+  per barycentric direction, the chain rule through the simplex's affine map).
 * :func:`walk_evaluate`: the walk and the evaluation fused (the walk's barycentric
   coordinates feed the basis).
 * :func:`extend_add`: the scatter-add of a child's update matrix into its parent's frontal
@@ -28,12 +30,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from simplexspline.spline.bform import monomial_plan, scale_factors
+from simplexspline.spline.bform import monomial_plan, scale_factors, step_table
 from simplexspline.errors import InputError
 
 __all__ = ["HAVE_NUMBA", "one_blas_thread", "thread_count", "in_parallel", "basis_plan",
            "grid_locate", "walk_plan", "walk_locate", "walk_evaluate", "basis_cols",
-           "sorted_design_t", "evaluate", "extend_add", "gram_blocks", "fused_normal"]
+           "sorted_design_t", "evaluate", "gradient", "extend_add", "gram_blocks",
+           "fused_normal"]
 
 try:  # pragma: no cover - exercised where numba is installed
     if os.environ.get("SIMPLEXSPLINE_NO_NUMBA"):
@@ -283,6 +286,42 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
             _block_barycentric(x, sid, i0, i1, origin, tinv, bt)
             mono = _block_monomials(bt, 0, i1 - i0, parents, firsts, offsets, s1, s2)
             _dot_block(mono, sid, i0, i1 - i0, coef, scale, out)
+        return out
+
+    @numba.njit(cache=True, nogil=True)
+    def _gradient(x, sid, origin, tinv, coef, table, scale, parents, firsts, offsets, d,
+                  out):
+        """Gradients at points x in simplices sid (NaN rows where sid < 0): with the
+        degree d-1 basis B_k (monomials times ``scale``) and the step table (positions of
+        kappa_k + e_a), ds/db_a = d sum_k c[table[k, a]] B_k, then the chain rule through
+        the simplex's affine map, db_a/dx_q = tinv[a-1, q] (a >= 1) and db_0 = -sum."""
+        npts, n = x.shape
+        m = table.shape[0]
+        bt = np.empty((n + 1, EVAL_BLOCK))
+        s1 = np.empty((max(m, n + 1), EVAL_BLOCK))
+        s2 = np.empty((max(m, n + 1), EVAL_BLOCK))
+        g = np.empty(n + 1)
+        for i0 in range(0, npts, EVAL_BLOCK):
+            i1 = min(i0 + EVAL_BLOCK, npts)
+            _block_barycentric(x, sid, i0, i1, origin, tinv, bt)
+            mono = _block_monomials(bt, 0, i1 - i0, parents, firsts, offsets, s1, s2)
+            for i in range(i1 - i0):
+                j = sid[i0 + i]
+                if j < 0:
+                    for q in range(n):
+                        out[i0 + i, q] = np.nan
+                    continue
+                for a in range(n + 1):
+                    g[a] = 0.0
+                for k in range(m):
+                    v = scale[k] if m == 1 else mono[k, i] * scale[k]  # m == 1: d = 1
+                    for a in range(n + 1):
+                        g[a] += v * coef[j, table[k, a]]
+                for q in range(n):
+                    acc = 0.0
+                    for a in range(n):
+                        acc += (g[a + 1] - g[0]) * tinv[j, a, q]
+                    out[i0 + i, q] = d * acc
         return out
 
     @numba.njit(cache=True, nogil=True)
@@ -753,6 +792,24 @@ def sorted_design_t(x, sid, counts, origin, tinv, d: int):
     _sorted_design_t(np.ascontiguousarray(x), sid, pos, origin, tinv, parents, firsts,
                      offsets, scale, out, perm)
     return out, perm
+
+
+@lru_cache(maxsize=64)
+def _step_table(n: int, d: int) -> np.ndarray:
+    return step_table(n, d)
+
+
+def gradient(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
+    """Spline gradients (N, n) at points x (N, n) in simplices sid (N,; -1 gives NaN rows),
+    compiled; d >= 1."""
+    parents, firsts, offsets, scale = basis_plan(x.shape[1], d - 1)
+    out = np.empty(x.shape)
+    x = np.ascontiguousarray(x)
+    table = _step_table(x.shape[1], d)
+    in_parallel(len(x), lambda s, e: _gradient(x[s:e], sid[s:e], origin, tinv, coef, table,
+                                               scale, parents, firsts, offsets, float(d),
+                                               out[s:e]))
+    return out
 
 
 def evaluate(x, sid, origin, tinv, coef, d: int) -> np.ndarray:

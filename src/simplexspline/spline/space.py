@@ -433,12 +433,15 @@ class SimplexSpline:
         """
         pts, sid, valid = self._prepare(x, outside, simplices)
         n, d = self.ndim, self.degree
+        tri = self.triangulation
+        if kernels.HAVE_NUMBA and d > 0:
+            return kernels.gradient(pts, np.where(valid, sid, -1), tri._origin, tri._tinv,
+                                    self.coefficients, d)
         out = np.full((len(pts), n), np.nan)
         idx = np.nonzero(valid)[0]
         if d == 0:
             out[idx] = 0.0
             return out
-        tri = self.triangulation
         # ds/db_i = d * sum_k c[kappa_k + e_i] B^{d-1}_k(b); then the chain rule with the
         # (per-simplex constant) gradients of the barycentric coordinates. Points are
         # grouped by simplex so both steps are small matrix products.
