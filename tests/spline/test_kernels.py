@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simplexspline import SplineSpace, Triangulation
+from simplexspline import SimplexSpline, SplineSpace, Triangulation
 from simplexspline.spline import kernels
 from simplexspline.spline.bform import basis_values_t
 
@@ -45,3 +45,28 @@ def test_fit_and_predict_identical_to_numpy_path(monkeypatch):
     np.testing.assert_allclose(fast.coefficients, slow.coefficients, rtol=1e-11, atol=1e-12)
     np.testing.assert_array_equal(np.isnan(pf), np.isnan(ps))
     np.testing.assert_allclose(pf[~np.isnan(pf)], ps[~np.isnan(ps)], rtol=1e-12, atol=1e-13)
+
+
+@pytest.mark.parametrize("n,d,kind", [(1, 1, "grid"), (2, 1, "delaunay"), (2, 3, "grid"),
+                                      (3, 2, "delaunay"), (3, 4, "delaunay"),
+                                      (5, 3, "delaunay")])
+def test_compiled_gradient_matches_numpy_path(n, d, kind, monkeypatch):
+    """The compiled gradient against the per-simplex numpy products, inside, on shared
+    facets and vertices, and outside under each policy."""
+    rng = np.random.default_rng(10 * n + d)
+    tri = (Triangulation.grid(np.zeros(n), np.ones(n), (2,) * n) if kind == "grid"
+           else Triangulation.delaunay(rng.random((n + 8, n))))
+    coef = rng.standard_normal((tri.nsimplex, kernels.basis_plan(n, d)[3].size))
+    spline = SimplexSpline(tri, d, 0, coef)
+    x = np.vstack([rng.uniform(-0.2, 1.2, (400, n)), tri.vertices,
+                   np.asarray(tri.corners).mean(axis=1)])
+    fast = {o: spline.gradient(x, outside=o) for o in ("nan", "extrapolate")}
+    one = np.vstack([spline.gradient(p) for p in x[:30]])
+    monkeypatch.setattr(kernels, "HAVE_NUMBA", False)
+    for o, got in fast.items():
+        want = spline.gradient(x, outside=o)
+        np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+        ok = ~np.isnan(want)
+        np.testing.assert_allclose(got[ok], want[ok], rtol=1e-10,
+                                   atol=1e-11 * np.abs(want[ok]).max())
+    np.testing.assert_allclose(one, fast["nan"][:30], rtol=1e-13, atol=1e-13)

@@ -10,7 +10,7 @@ import scipy.spatial
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from simplexspline import OutsideDomainError, SplineSpace, Triangulation
+from simplexspline import OutsideDomainError, SimplexSpline, SplineSpace, Triangulation
 from simplexspline.spline import kernels
 from simplexspline.spline.geometry.location import INSIDE_TOL, BucketLocator, WalkLocator
 
@@ -144,3 +144,71 @@ def test_walk_and_bucket_paths_agree_on_random_points():
     x = rng.uniform(-0.1, 1.1, (5000, 3))
     bucket = BucketLocator(np.asarray(tri.corners), tri._origin, tri._tinv)
     np.testing.assert_array_equal(tri.locate(x), bucket.locate(x))
+
+
+def _reference_values(spline, x, outside="nan"):
+    """The unfused compiled path: location, the outside policy, then evaluation."""
+    tri = spline.triangulation
+    sid = tri.locate(x)
+    if outside == "extrapolate":
+        bad = sid < 0
+        sid[bad] = tri.nearest(x[bad])
+    return kernels.evaluate(np.ascontiguousarray(x, dtype=float), sid, tri._origin,
+                            tri._tinv, spline.coefficients, spline.degree)
+
+
+@needs_numba
+@settings(max_examples=20, deadline=None)
+@given(n=st.integers(1, 5), d=st.integers(0, 4), nv=st.integers(0, 25),
+       seed=st.integers(0, 2**32 - 1))
+def test_fused_walk_evaluation_is_location_then_evaluation(n, d, nv, seed):
+    """predict's one-pass walk and evaluation gives the numbers of locating first and
+    evaluating after, bit for bit: inside, on shared facets and vertices (the lowest-index
+    simplex), and outside (NaN, or the nearest simplex's polynomial)."""
+    rng = np.random.default_rng(seed)
+    pts = rng.random((n + 2 + nv, n))
+    tri = Triangulation.delaunay(pts)
+    coef = rng.standard_normal((tri.nsimplex, kernels.basis_plan(n, d)[3].size))
+    spline = SimplexSpline(tri, d, -1 if d == 0 else 0, coef)
+    x = [_inside(tri, 200, rng), rng.uniform(-0.3, 1.3, (100, n)), tri.vertices]
+    if n > 1:
+        fac = tri.facets
+        if len(fac):
+            w = rng.dirichlet(np.ones(n), len(fac))
+            x.append(np.einsum("fk,fkn->fn", w, tri.vertices[fac.vertices]))
+    x = np.vstack(x)
+    for outside in ("nan", "extrapolate"):
+        fused = spline.predict(x, outside=outside)
+        np.testing.assert_array_equal(fused, _reference_values(spline, x, outside))
+    # one point at a time (the small-batch path) gives the same numbers
+    some = x[rng.choice(len(x), 20)]
+    np.testing.assert_array_equal(np.array([spline.predict(p)[0] for p in some]),
+                                  spline.predict(some))
+    sid, values, unlocated = kernels.walk_evaluate(x, tri._locator.plan, coef, d)
+    assert unlocated == np.count_nonzero(sid < 0)
+    np.testing.assert_array_equal(np.isnan(values), sid < 0)
+
+
+@needs_numba
+def test_fused_evaluation_settles_walks_stopped_at_a_notch():
+    """On a non-convex triangulation the walk hands points stopped at the notch to the
+    bucket search; predict then evaluates them in the simplex found there."""
+    full = Triangulation.grid([0, 0], [2, 2], (2, 2))
+    keep = np.ones(full.nsimplex, dtype=bool)
+    keep[full.locate([[1.7, 1.2], [1.2, 1.7]])] = False
+    tri = Triangulation(full.vertices, full.simplices[keep])
+    rng = np.random.default_rng(4)
+    x = rng.uniform(-0.1, 2.1, (3000, 2))
+    y = np.sin(x[:, 0]) + x[:, 1] ** 2
+    inside = tri.locate(x) >= 0
+    spline = SplineSpace(tri, 3, 1).fit(x[inside], y[inside])
+    sid, _, unlocated = kernels.walk_evaluate(x, tri._locator.plan, spline.coefficients, 3)
+    assert np.any(sid == -2)  # the case under test: walks the kernel could not settle
+    np.testing.assert_array_equal(spline.predict(x), _reference_values(spline, x))
+    np.testing.assert_array_equal(spline.predict(x, outside="extrapolate"),
+                                  _reference_values(spline, x, "extrapolate"))
+    with pytest.raises(OutsideDomainError, match="outside the triangulation"):
+        spline.predict(x, outside="raise")
+    # against the numpy path (de Casteljau through derivative order 0)
+    np.testing.assert_allclose(spline.predict(x), spline.derivative(x, (0, 0)), rtol=1e-12,
+                               atol=1e-12)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.linalg
 import scipy.sparse
 from hypothesis import given
 from hypothesis import strategies as st
@@ -424,3 +425,51 @@ def test_numerically_hopeless_degree_is_refused_up_front():
     with pytest.raises(InputError, match="numerically hopeless"):
         SimplexSpline.fit(x, x[:, 0], tri, degree=30, on_insufficient="minnorm")
     assert SplineSpace(tri, MAX_DEGREE, 1).nbasis == 231
+
+
+def test_full_rank_screen_accepts_only_clearly_nonsingular_conditions():
+    """The Cholesky screen of _undetermined says 'full rank' for a well-conditioned block
+    of conditions, never for one with a null direction or singular values near the SVD's
+    1e-9 rank threshold (those go on to the exact SVD)."""
+    from simplexspline.spline.fit.constrained import _clearly_full_rank
+
+    rng = np.random.default_rng(0)
+    u, _ = np.linalg.qr(rng.standard_normal((300, 40)))
+    v, _ = np.linalg.qr(rng.standard_normal((40, 40)))
+    for smallest, full in ((1e-2, True), (1e-4, True), (1e-7, False), (1e-10, False),
+                           (0.0, False)):
+        sv = np.geomspace(1.0, max(smallest, 1e-300), 40)
+        sv[-1] = smallest
+        C = (u * sv) @ v.T
+        assert _clearly_full_rank(C.T @ C) is full, smallest
+    assert not _clearly_full_rank(np.zeros((3, 3)))
+
+
+@pytest.mark.parametrize("seed", [0, 3, 5])
+def test_undetermined_directions_match_a_dense_null_space(seed):
+    """null(Q) intersected with null(H), found by components (most of them screened as
+    full rank), spans the null space of the stacked dense [Q; H]."""
+    from simplexspline.spline import kernels
+    from simplexspline.spline.fit.constrained import _null_directions, _undetermined
+
+    rng = np.random.default_rng(seed)
+    tri = Triangulation.delaunay(rng.random((9, 3)))
+    space = SplineSpace(tri, 4, 1)
+    # sparse data: simplices with many points, with a few, and without any
+    many, few = np.array_split(rng.permutation(tri.nsimplex)[:2 * tri.nsimplex // 3], 2)
+    x = np.vstack([np.einsum("ik,ikn->in", rng.dirichlet(np.ones(4), k),
+                             tri.corners[[j] * k]) for js, k in ((many, 60), (few, 6))
+                   for j in js])
+    ne = space.normal_equations(x, np.sin(x).sum(axis=1))
+    N, _ = _null_directions(ne.XtWX, ne.counts)
+    H = space.system.H_full
+    Z = _undetermined(N, H).toarray()
+    Qd = scipy.linalg.block_diag(*ne.XtWX)
+    stacked = np.vstack([Qd / np.abs(Qd).max(), H.toarray()])
+    with kernels.one_blas_thread():  # threaded OpenBLAS took 14 s here on a loaded machine
+        sv, vt = np.linalg.svd(stacked, full_matrices=False)[1:]
+    ref_null = vt[int((sv > 1e-9 * sv[0]).sum()):].T
+    assert Z.shape[1] == ref_null.shape[1] > 0
+    # the same subspace: each basis projects onto the other without loss
+    Zo = np.linalg.qr(Z)[0]
+    np.testing.assert_allclose(ref_null @ (ref_null.T @ Zo), Zo, atol=1e-7)

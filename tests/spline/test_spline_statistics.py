@@ -530,3 +530,39 @@ def test_aero_model_bounds_go_through_the_scaling(fitted):
     np.testing.assert_allclose(model.standard_error(data), fitted["se"], rtol=1e-7)
     lo, hi = model.confidence_interval(data, 0.9)
     np.testing.assert_allclose((lo + hi) / 2, model.predict(data), rtol=1e-12, atol=1e-14)
+
+
+def test_covariance_columns_take_the_fits_penalty_passes(monkeypatch):
+    """The column path factorises the regularised KKT matrices the fit uses, tight penalty
+    first on sparse systems (KKT_DELTA alone stalls on the nearly dependent conditions of
+    Delaunay slivers), and gives the basis path's covariance blocks."""
+    from simplexspline.spline.fit import constrained
+
+    rng = np.random.default_rng(17)
+    tri = Triangulation.delaunay(rng.random((9, 3)))
+    x, _ = data_in_simplices(tri, 40, rng)
+    y = smooth_function(x) + 0.05 * rng.standard_normal(len(x))
+    basis, _ = fit_with_stats(tri, 3, 1, x, y)
+    want = basis.uncertainty.covariance_blocks()
+    monkeypatch.setattr(constrained, "DENSE_MAX", 0)  # the sparse path's order of passes
+    monkeypatch.setattr(st, "BASIS_BYTES", 0)
+    seen = []
+    real = constrained._preconditioner
+
+    def spy(Qg, A, sigma, delta, *args, **kwargs):
+        seen.append((sigma, delta))
+        return real(Qg, A, sigma, delta, *args, **kwargs)
+
+    monkeypatch.setattr(constrained, "_preconditioner", spy)
+    space = SplineSpace(tri, 3, 1)
+    ne = space.normal_equations(x, y)
+    fitted = space.solve(ne)
+    seen.clear()  # the fit's own passes; now the statistics'
+    got = fitted.with_statistics(ne).uncertainty.covariance_blocks()
+    system = space.system
+    dhat = ne.XtWX.shape[1]
+    scale = float(np.einsum("jkk->", ne.XtWX)) / (int((ne.counts > 0).sum()) * dhat)
+    first = constrained.kkt_passes(system.nglobal, system.A_all.shape[0], scale)[0]
+    assert seen and seen[0] == pytest.approx(first[:2], rel=1e-12)
+    assert seen[0][1] == pytest.approx(constrained.KKT_DELTA_TIGHT * scale, rel=1e-12)
+    np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-10 * np.abs(want).max())

@@ -14,6 +14,10 @@ Kernels
 * :func:`basis_cols`: B-form basis values (d_hat, N), level by level over blocks of points.
 * :func:`evaluate`: barycentric coordinates, basis and the dot product with the simplex's
   coefficients fused, without materialising the basis matrix.
+* :func:`gradient`: the same for gradients (the degree d-1 basis, one de Casteljau step
+  per barycentric direction, the chain rule through the simplex's affine map).
+* :func:`walk_evaluate`: the walk and the evaluation fused (the walk's barycentric
+  coordinates feed the basis).
 * :func:`extend_add`: the scatter-add of a child's update matrix into its parent's frontal
   matrix in the sparse Cholesky of :mod:`simplexspline.spline.fit.constrained` (lower triangles).
 """
@@ -26,11 +30,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from simplexspline.spline.bform import monomial_plan, scale_factors
+from simplexspline.spline.bform import monomial_plan, scale_factors, step_table
 from simplexspline.errors import InputError
 
-__all__ = ["HAVE_NUMBA", "one_blas_thread", "thread_count", "in_parallel", "basis_plan", "grid_locate", "walk_locate", "basis_cols", "sorted_design_t", "evaluate",
-           "extend_add", "gram_blocks", "fused_normal"]
+__all__ = ["HAVE_NUMBA", "one_blas_thread", "thread_count", "in_parallel", "basis_plan",
+           "grid_locate", "walk_plan", "walk_locate", "walk_evaluate", "basis_cols",
+           "sorted_design_t", "evaluate", "gradient", "extend_add", "gram_blocks",
+           "fused_normal"]
 
 try:  # pragma: no cover - exercised where numba is installed
     if os.environ.get("SIMPLEXSPLINE_NO_NUMBA"):
@@ -181,6 +187,11 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
 
     BLOCK = 256
 
+    #: Points per block of the evaluation kernels: the monomial scratch (d_hat x 32
+    #: doubles, twice) stays in L1 cache. 256 points per block made evaluation 2.5x
+    #: slower (5-D, d = 3, 1,000,000 points: 187 against 75 ms of CPU time, one run).
+    EVAL_BLOCK = 32
+
     @numba.njit(cache=True, nogil=True)
     def _block_monomials(bt, i0, i1, parents, firsts, offsets, s1, s2):
         """Degree-d monomials of points i0..i1 (columns of bt), level by level, into
@@ -236,37 +247,81 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
             bt[0, i] = 1.0 - total
 
     @numba.njit(cache=True, nogil=True)
-    def _evaluate(x, sid, origin, tinv, cs, parents, firsts, offsets, out):
-        """Values at points x in simplices sid of the B-form with scaled coefficients
-        cs = coef * scale (the multinomial factors folded in)."""
-        npts, n = x.shape
-        m = cs.shape[1]
-        bt = np.empty((n + 1, BLOCK))
-        s1 = np.empty((max(m, n + 1), BLOCK))
-        s2 = np.empty((max(m, n + 1), BLOCK))
+    def _dot_block(mono, sid, i0, w, coef, scale, out):
+        """out[i0 + i] = sum_k mono[k, i] * (coef[j, k] * scale[k]) for the w points of a
+        block (j = sid[i0 + i]; NaN where j < 0). The product coef * scale is rounded as
+        the precomputed scaled coefficients were, so values do not depend on the path."""
+        m = coef.shape[1]
         m4 = m - m % 4
-        for i0 in range(0, npts, BLOCK):
-            i1 = min(i0 + BLOCK, npts)
+        for i in range(w):
+            j = sid[i0 + i]
+            if j < 0:
+                out[i0 + i] = np.nan
+                continue
+            # four partial sums: independent dependency chains
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            a3 = 0.0
+            for k in range(0, m4, 4):
+                a0 += mono[k, i] * (coef[j, k] * scale[k])
+                a1 += mono[k + 1, i] * (coef[j, k + 1] * scale[k + 1])
+                a2 += mono[k + 2, i] * (coef[j, k + 2] * scale[k + 2])
+                a3 += mono[k + 3, i] * (coef[j, k + 3] * scale[k + 3])
+            for k in range(m4, m):
+                a0 += mono[k, i] * (coef[j, k] * scale[k])
+            out[i0 + i] = (a0 + a1) + (a2 + a3)
+
+    @numba.njit(cache=True, nogil=True)
+    def _evaluate(x, sid, origin, tinv, coef, scale, parents, firsts, offsets, out):
+        """Values at points x in simplices sid of the B-form with coefficients coef (the
+        multinomial factors ``scale`` folded in term by term)."""
+        npts, n = x.shape
+        m = coef.shape[1]
+        bt = np.empty((n + 1, EVAL_BLOCK))
+        s1 = np.empty((max(m, n + 1), EVAL_BLOCK))
+        s2 = np.empty((max(m, n + 1), EVAL_BLOCK))
+        for i0 in range(0, npts, EVAL_BLOCK):
+            i1 = min(i0 + EVAL_BLOCK, npts)
+            _block_barycentric(x, sid, i0, i1, origin, tinv, bt)
+            mono = _block_monomials(bt, 0, i1 - i0, parents, firsts, offsets, s1, s2)
+            _dot_block(mono, sid, i0, i1 - i0, coef, scale, out)
+        return out
+
+    @numba.njit(cache=True, nogil=True)
+    def _gradient(x, sid, origin, tinv, coef, table, scale, parents, firsts, offsets, d,
+                  out):
+        """Gradients at points x in simplices sid (NaN rows where sid < 0): with the
+        degree d-1 basis B_k (monomials times ``scale``) and the step table (positions of
+        kappa_k + e_a), ds/db_a = d sum_k c[table[k, a]] B_k, then the chain rule through
+        the simplex's affine map, db_a/dx_q = tinv[a-1, q] (a >= 1) and db_0 = -sum."""
+        npts, n = x.shape
+        m = table.shape[0]
+        bt = np.empty((n + 1, EVAL_BLOCK))
+        s1 = np.empty((max(m, n + 1), EVAL_BLOCK))
+        s2 = np.empty((max(m, n + 1), EVAL_BLOCK))
+        g = np.empty(n + 1)
+        for i0 in range(0, npts, EVAL_BLOCK):
+            i1 = min(i0 + EVAL_BLOCK, npts)
             _block_barycentric(x, sid, i0, i1, origin, tinv, bt)
             mono = _block_monomials(bt, 0, i1 - i0, parents, firsts, offsets, s1, s2)
             for i in range(i1 - i0):
                 j = sid[i0 + i]
                 if j < 0:
-                    out[i0 + i] = np.nan
+                    for q in range(n):
+                        out[i0 + i, q] = np.nan
                     continue
-                # four partial sums: independent dependency chains
-                a0 = 0.0
-                a1 = 0.0
-                a2 = 0.0
-                a3 = 0.0
-                for k in range(0, m4, 4):
-                    a0 += mono[k, i] * cs[j, k]
-                    a1 += mono[k + 1, i] * cs[j, k + 1]
-                    a2 += mono[k + 2, i] * cs[j, k + 2]
-                    a3 += mono[k + 3, i] * cs[j, k + 3]
-                for k in range(m4, m):
-                    a0 += mono[k, i] * cs[j, k]
-                out[i0 + i] = (a0 + a1) + (a2 + a3)
+                for a in range(n + 1):
+                    g[a] = 0.0
+                for k in range(m):
+                    v = scale[k] if m == 1 else mono[k, i] * scale[k]  # m == 1: d = 1
+                    for a in range(n + 1):
+                        g[a] += v * coef[j, table[k, a]]
+                for q in range(n):
+                    acc = 0.0
+                    for a in range(n):
+                        acc += (g[a + 1] - g[0]) * tinv[j, a, q]
+                    out[i0 + i, q] = d * acc
         return out
 
     @numba.njit(cache=True, nogil=True)
@@ -419,91 +474,116 @@ if HAVE_NUMBA:  # pragma: no cover - compiled
             total += acc
         b[0] = 1.0 - total
         imin = 0
-        for k in range(1, n + 1):
-            if b[k] < b[imin]:
-                imin = k
+        bmin = b[0]
+        for k in range(1, n + 1):  # branch-free: the comparisons are unpredictable
+            lt = b[k] < bmin
+            imin = k if lt else imin
+            bmin = b[k] if lt else bmin
         return imin
 
+    #: Simplices remembered by the tie search of :func:`_walk` (per point).
+    TIE_CAP = 4096
+
     @numba.njit(cache=True, nogil=True)
-    def _walk_locate(x, origin, tinv, neighbors, lower, inv_width, shape, seeds, convex,
-                     tol, box_tol, maxsteps, out):
-        """Visibility walk from a seed simplex (see :func:`walk_locate`); -2 marks points
-        the walk could not settle (the caller locates them otherwise)."""
-        npts, n = x.shape
-        b = np.empty(n + 1)
-        cap = 4096
-        stack = np.empty(cap, dtype=np.int64)
-        seen = np.empty(cap, dtype=np.int64)
-        for i in range(npts):
-            # seed: the simplex recorded for the point's cell of the seed grid
-            flat = 0
-            inbox = True
-            for k in range(n):
-                r = (x[i, k] - lower[k]) * inv_width[k]
-                if r < -box_tol[k] or r > shape[k] + box_tol[k]:
-                    inbox = False
-                c = min(max(int(np.floor(r)), 0), shape[k] - 1)
-                flat = flat * shape[k] + c
-            if not inbox:
-                out[i] = -1
-                continue
-            s = seeds[flat]
-            found = -2
-            for _ in range(maxsteps):
-                imin = _bary_min(x, i, s, origin, tinv, b)
-                if b[imin] >= -tol:
-                    found = s
-                    break
-                nb = neighbors[s, imin]
-                if nb < 0:
-                    found = -1 if convex else -2
-                    break
-                s = nb
-            if found < 0:
-                out[i] = found
-                continue
-            # Ties: a point within tol of a facet of s may lie in the simplices across it
-            # too; the answer is the lowest index among the containing simplices reached
-            # through such facets, whatever simplex the walk ended in.
-            near = False
+    def _lowest_containing(x, i, s, origin, tinv, neighbors, tol, b, stack, seen):
+        """The lowest index among the simplices containing point x[i] (within tol) that
+        are reached from s, which contains it, through facets within tol of the point; b
+        receives the point's barycentric coordinates in that simplex."""
+        n = x.shape[1]
+        cap = stack.shape[0]
+        best = s
+        top = 1
+        nseen = 1
+        stack[0] = s
+        seen[0] = s
+        while top > 0 and nseen < cap:
+            top -= 1
+            t = stack[top]
+            _bary_min(x, i, t, origin, tinv, b)
             for k in range(n + 1):
-                if b[k] <= tol:
-                    near = True
-            if near:
-                best = s
-                top = 1
-                nseen = 1
-                stack[0] = s
-                seen[0] = s
-                while top > 0 and nseen < cap:
-                    top -= 1
-                    t = stack[top]
-                    _bary_min(x, i, t, origin, tinv, b)
+                if b[k] > tol:
+                    continue
+                nb = neighbors[t, k]
+                if nb < 0:
+                    continue
+                dup = False
+                for q in range(nseen):
+                    if seen[q] == nb:
+                        dup = True
+                        break
+                if dup or nseen >= cap:
+                    continue
+                seen[nseen] = nb
+                nseen += 1
+                bm = _bary_min(x, i, nb, origin, tinv, b)
+                if b[bm] >= -tol:
+                    if nb < best:
+                        best = nb
+                    stack[top] = nb
+                    top += 1
+                _bary_min(x, i, t, origin, tinv, b)
+        _bary_min(x, i, best, origin, tinv, b)
+        return best
+
+    @numba.njit(cache=True, nogil=True)
+    def _walk(x, origin, tinv, neighbors, lower, inv_width, shape, seeds, convex, tol,
+              box_tol, maxsteps, coef, scale, parents, firsts, offsets, sid, out):
+        """Visibility walks from seed simplices (see :func:`walk_locate`) into ``sid``: -1
+        outside, -2 for points the walk could not settle (the caller locates them
+        otherwise). With coefficients (``coef`` of shape (J, d_hat), d_hat > 0) the spline
+        is evaluated too, into ``out`` (NaN where sid < 0), from the walk's barycentric
+        coordinates of the containing simplex: the numbers :func:`_block_barycentric`
+        would recompute. One kernel for both, so the walk exists once (written out: as an
+        inlined function it ran 1.3x slower). Returns the number of points with
+        sid < 0."""
+        npts, n = x.shape
+        m = coef.shape[1]
+        b = np.empty(n + 1)
+        stack = np.empty(TIE_CAP, dtype=np.int64)
+        seen = np.empty(TIE_CAP, dtype=np.int64)
+        bt = np.empty((n + 1, EVAL_BLOCK))
+        s1 = np.empty((max(m, n + 1), EVAL_BLOCK))
+        s2 = np.empty((max(m, n + 1), EVAL_BLOCK))
+        nout = 0
+        for i0 in range(0, npts, EVAL_BLOCK):
+            w = min(EVAL_BLOCK, npts - i0)
+            for ib in range(w):
+                i = i0 + ib
+                # seed: the simplex recorded for the point's cell of the seed grid
+                flat = 0
+                inbox = True
+                for k in range(n):
+                    r = (x[i, k] - lower[k]) * inv_width[k]
+                    inbox &= (r >= -box_tol[k]) & (r <= shape[k] + box_tol[k])
+                    c = int(min(max(r, 0.0), shape[k] - 1.0))  # the floor, in the grid
+                    flat = flat * shape[k] + c
+                found = -1
+                if inbox:
+                    found = -2
+                    s = seeds[flat]
+                    for _ in range(maxsteps):
+                        imin = _bary_min(x, i, s, origin, tinv, b)
+                        if b[imin] >= -tol:
+                            found = s
+                            break
+                        s = neighbors[s, imin]
+                        if s < 0:
+                            found = -1 if convex else -2
+                            break
+                    # Ties: a point within tol of a facet may lie in the simplices across
+                    # it too (rare: a separate function keeps this loop small)
+                    if found >= 0 and b[imin] <= tol:
+                        found = _lowest_containing(x, i, found, origin, tinv, neighbors,
+                                                   tol, b, stack, seen)
+                sid[i] = found
+                nout += found < 0
+                if m > 0:
                     for k in range(n + 1):
-                        if b[k] > tol:
-                            continue
-                        nb = neighbors[t, k]
-                        if nb < 0:
-                            continue
-                        dup = False
-                        for q in range(nseen):
-                            if seen[q] == nb:
-                                dup = True
-                                break
-                        if dup or nseen >= cap:
-                            continue
-                        seen[nseen] = nb
-                        nseen += 1
-                        bm = _bary_min(x, i, nb, origin, tinv, b)
-                        if b[bm] >= -tol:
-                            if nb < best:
-                                best = nb
-                            stack[top] = nb
-                            top += 1
-                        _bary_min(x, i, t, origin, tinv, b)
-                found = best
-            out[i] = found
-        return out
+                        bt[k, ib] = b[k] if found >= 0 else 0.0
+            if m > 0:
+                mono = _block_monomials(bt, 0, w, parents, firsts, offsets, s1, s2)
+                _dot_block(mono, sid, i0, w, coef, scale, out)
+        return nout
 
     @numba.njit(cache=True, nogil=True)
     def _extend_add(front, idx, upd):
@@ -582,33 +662,109 @@ def grid_locate(x, lower, step, shape, table, nfact, tol) -> np.ndarray:
     return out
 
 
-def walk_locate(x, origin, tinv, neighbors, lower, width, shape, seeds, convex: bool,
-                tol: float) -> np.ndarray:
+def walk_plan(origin, tinv, neighbors, lower, width, shape, seeds, convex: bool,
+              tol: float) -> tuple:
+    """The arguments of the walk kernels (:func:`walk_locate`, :func:`walk_evaluate`),
+    prepared once per triangulation so that a call on a few points costs no set-up.
+
+    Parameters
+    ----------
+    origin, tinv : ndarray, shapes (J, n) and (J, n, n)
+        The simplices' affine maps.
+    neighbors : ndarray of int, shape (J, n + 1)
+        Neighbour across the facet opposite each local vertex, -1 on the boundary.
+    lower, width : ndarray, shape (n,)
+        Lower corner and cell widths of the seed grid.
+    shape : ndarray of int, shape (n,)
+        Cells of the seed grid per axis.
+    seeds : ndarray of int, shape (prod(shape),)
+        Seed simplex of every cell (flat, C order).
+    convex : bool
+        A walk stopped by a boundary facet proves the point outside.
+    tol : float
+        A point with barycentric coordinates >= -tol is inside.
+    """
+    shape = np.ascontiguousarray(shape, dtype=np.int64)
+    return (np.ascontiguousarray(origin, dtype=float), np.ascontiguousarray(tinv, dtype=float),
+            np.ascontiguousarray(neighbors, dtype=np.int64),
+            np.ascontiguousarray(lower, dtype=float),
+            1.0 / np.asarray(width, dtype=float), shape,
+            np.ascontiguousarray(seeds, dtype=np.int64), bool(convex), float(tol),
+            np.full(len(shape), 1e-9) * shape, int(64 + 8 * shape.max()))
+
+
+def walk_locate(x, plan: tuple) -> np.ndarray:
     """Compiled point location in any triangulation by a visibility walk.
 
-    Each point starts in the seed simplex of its cell of a uniform seed grid (``lower``,
-    cell ``width``, ``shape`` cells; ``seeds`` flat, C order) and steps across the facet
-    opposite its most negative barycentric coordinate until all are >= ``-tol``. Points on
-    (or within ``tol`` of) shared faces get the lowest-index simplex containing them.
+    Each point starts in the seed simplex of its cell of a uniform seed grid and steps
+    across the facet opposite its most negative barycentric coordinate until all are
+    >= ``-tol``. Points on (or within ``tol`` of) shared faces get the lowest-index simplex
+    containing them.
+
+    Parameters
+    ----------
+    x : ndarray, shape (N, n)
+    plan : tuple
+        From :func:`walk_plan`.
 
     Returns
     -------
     ndarray of int64, shape (N,)
-        The simplex, -1 outside (beyond the seed grid's box, or, when ``convex``, beyond a
-        boundary facet), -2 where the walk stopped at a boundary facet of a non-convex
-        triangulation or took too many steps (to be located by other means).
+        The simplex, -1 outside (beyond the seed grid's box, or, when the plan is
+        ``convex``, beyond a boundary facet), -2 where the walk stopped at a boundary facet
+        of a non-convex triangulation or took too many steps (to be located by other
+        means).
     """
     out = np.empty(len(x), dtype=np.int64)
     if len(x) == 0:
         return out
     x = np.ascontiguousarray(x, dtype=float)
-    inv = 1.0 / np.asarray(width, dtype=float)
-    box_tol = np.full(len(shape), 1e-9) * np.asarray(shape)
-    maxsteps = int(64 + 8 * np.asarray(shape).max())
-    in_parallel(len(x), lambda s, e: _walk_locate(
-        x[s:e], origin, tinv, neighbors, lower, inv, shape, seeds, bool(convex), tol,
-        box_tol, maxsteps, out[s:e]))
+    # no coefficients: location only
+    coef, none, empty = np.zeros((0, 0)), np.zeros(0), np.zeros(0, dtype=np.int64)
+    in_parallel(len(x), lambda s, e: _walk(x[s:e], *plan, coef, none, empty, empty, empty,
+                                           out[s:e], none))
     return out
+
+
+def walk_evaluate(x, plan: tuple, coef, d: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """:func:`walk_locate` and :func:`evaluate` in one compiled pass: the walk's barycentric
+    coordinates of the containing simplex feed the basis directly.
+
+    Parameters
+    ----------
+    x : ndarray, shape (N, n)
+    plan : tuple
+        From :func:`walk_plan`.
+    coef : ndarray, shape (J, d_hat)
+        B-coefficients.
+    d : int
+        Degree.
+
+    Returns
+    -------
+    sid : ndarray of int64, shape (N,)
+        As :func:`walk_locate` returns it.
+    values : ndarray, shape (N,)
+        The spline's values, NaN where ``sid < 0`` (the same numbers as :func:`evaluate`
+        gives at the located simplices).
+    unlocated : int
+        The number of points with ``sid < 0`` (outside or unsettled).
+    """
+    if d == 0:
+        sid = walk_locate(x, plan)
+        values = np.where(sid >= 0, coef[np.maximum(sid, 0), 0], np.nan)
+        return sid, values, int(np.count_nonzero(sid < 0))
+    parents, firsts, offsets, scale = basis_plan(x.shape[1], d)
+    sid = np.empty(len(x), dtype=np.int64)
+    out = np.empty(len(x))
+    if len(x) == 0:
+        return sid, out, 0
+    x = np.ascontiguousarray(x, dtype=float)
+    coef = np.ascontiguousarray(coef, dtype=float)
+    counts: list = []  # one per slice (list.append is atomic under the GIL)
+    in_parallel(len(x), lambda s, e: counts.append(_walk(
+        x[s:e], *plan, coef, scale, parents, firsts, offsets, sid[s:e], out[s:e])))
+    return sid, out, int(sum(counts))
 
 
 def basis_cols(bt: np.ndarray, d: int) -> np.ndarray:
@@ -638,6 +794,24 @@ def sorted_design_t(x, sid, counts, origin, tinv, d: int):
     return out, perm
 
 
+@lru_cache(maxsize=64)
+def _step_table(n: int, d: int) -> np.ndarray:
+    return step_table(n, d)
+
+
+def gradient(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
+    """Spline gradients (N, n) at points x (N, n) in simplices sid (N,; -1 gives NaN rows),
+    compiled; d >= 1."""
+    parents, firsts, offsets, scale = basis_plan(x.shape[1], d - 1)
+    out = np.empty(x.shape)
+    x = np.ascontiguousarray(x)
+    table = _step_table(x.shape[1], d)
+    in_parallel(len(x), lambda s, e: _gradient(x[s:e], sid[s:e], origin, tinv, coef, table,
+                                               scale, parents, firsts, offsets, float(d),
+                                               out[s:e]))
+    return out
+
+
 def evaluate(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
     """Spline values at points x (N, n) in simplices sid (N,; -1 gives NaN), compiled."""
     parents, firsts, offsets, scale = basis_plan(x.shape[1], d)
@@ -646,7 +820,6 @@ def evaluate(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
         out[:] = np.where(sid >= 0, coef[np.maximum(sid, 0), 0], np.nan)
         return out
     x = np.ascontiguousarray(x)
-    cs = coef * scale
-    in_parallel(len(x), lambda s, e: _evaluate(x[s:e], sid[s:e], origin, tinv, cs, parents,
-                                               firsts, offsets, out[s:e]))
+    in_parallel(len(x), lambda s, e: _evaluate(x[s:e], sid[s:e], origin, tinv, coef, scale,
+                                               parents, firsts, offsets, out[s:e]))
     return out

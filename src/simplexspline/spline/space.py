@@ -40,7 +40,12 @@ from simplexspline.spline.fit.normal_equations import NormalEquations
 from simplexspline.spline.fit.penalty import solve_penalized
 from simplexspline.spline.formats.model_file import ModelRecord, read_model, save_spline
 from simplexspline.spline.geometry.barycentric import direction_coordinates
-from simplexspline.spline.geometry.outside import locate
+from simplexspline.spline.geometry.outside import (
+    SPLINE_POLICIES,
+    check_policy,
+    locate,
+    resolve_outside,
+)
 from simplexspline.spline.inputs import as_points, check_basis_size, check_degree
 from simplexspline.spline.uncertainty.intervals import ARRAYS as STATISTICS_ARRAYS
 from simplexspline.spline.uncertainty.intervals import Uncertainty
@@ -350,13 +355,23 @@ class SimplexSpline:
         -------
         ndarray, shape (N,)
         """
-        if kernels.HAVE_NUMBA:
-            pts, sid, valid = self._prepare(x, outside, simplices)
-            sid = np.where(valid, sid, -1)
-            tri = self.triangulation
-            return kernels.evaluate(pts, sid, tri._origin, tri._tinv, self.coefficients,
-                                    self.degree)
-        return self.derivative(x, (0,) * self.ndim, outside=outside, simplices=simplices)
+        if not kernels.HAVE_NUMBA:
+            return self.derivative(x, (0,) * self.ndim, outside=outside, simplices=simplices)
+        tri = self.triangulation
+        pts = as_points(x, name="x", ndim=tri.ndim)
+        if simplices is not None:
+            return kernels.evaluate(pts, tri._check_ids(simplices, len(pts)), tri._origin,
+                                    tri._tinv, self.coefficients, self.degree)
+        check_policy(outside, SPLINE_POLICIES)
+        # one compiled pass locates and evaluates; only points outside come back here
+        sid, values, outside_any = tri._locate_evaluate(pts, self.coefficients, self.degree)
+        if outside_any:
+            out = np.nonzero(sid < 0)[0]
+            sid, _ = resolve_outside(tri, pts, sid, outside)
+            redo = out[sid[out] >= 0]  # extrapolated
+            values[redo] = kernels.evaluate(pts[redo], sid[redo], tri._origin, tri._tinv,
+                                            self.coefficients, self.degree)
+        return values
 
     __call__ = predict
 
@@ -418,12 +433,15 @@ class SimplexSpline:
         """
         pts, sid, valid = self._prepare(x, outside, simplices)
         n, d = self.ndim, self.degree
+        tri = self.triangulation
+        if kernels.HAVE_NUMBA and d > 0:
+            return kernels.gradient(pts, np.where(valid, sid, -1), tri._origin, tri._tinv,
+                                    self.coefficients, d)
         out = np.full((len(pts), n), np.nan)
         idx = np.nonzero(valid)[0]
         if d == 0:
             out[idx] = 0.0
             return out
-        tri = self.triangulation
         # ds/db_i = d * sum_k c[kappa_k + e_i] B^{d-1}_k(b); then the chain rule with the
         # (per-simplex constant) gradients of the barycentric coordinates. Points are
         # grouped by simplex so both steps are small matrix products.

@@ -37,7 +37,7 @@ from simplexspline.spline import kernels
 
 from simplexspline.spline.fit.cholesky import SparseCholesky
 
-__all__ = ["POLICIES", "SolveInfo", "solve_constrained"]
+__all__ = ["POLICIES", "SolveInfo", "kkt_passes", "solve_constrained"]
 
 #: What to do when data and continuity leave coefficients undetermined.
 POLICIES = ("raise", "minnorm", "ridge")
@@ -188,11 +188,38 @@ def _null_directions(Q: np.ndarray, counts: np.ndarray):
     return N, np.unique(js)
 
 
+#: Screen of :func:`_undetermined`: a component whose Gram matrix C'C of conditions stays
+#: positive definite after FULL_RANK_SHIFT * ||C'C||_inf is subtracted from its diagonal
+#: has all singular values above sqrt(FULL_RANK_SHIFT) = 1e-5 of the largest (round-off
+#: in C'C and in its Cholesky factor is ~1e-13 of ||C'C|| at these sizes), far above the
+#: SVD's rank threshold of 1e-9: it has no undetermined direction, and its QR and SVD
+#: are skipped.
+FULL_RANK_SHIFT = 1e-10
+
+
+def _clearly_full_rank(gram: np.ndarray) -> bool:
+    """Whether ``gram`` (k x k, C'C of a block of conditions C) is certainly
+    non-singular at the SVD's threshold (see :data:`FULL_RANK_SHIFT`): one Cholesky
+    factorisation of the shifted matrix."""
+    norm = float(np.abs(gram).sum(axis=1).max())  # >= the largest eigenvalue
+    if not norm > 0:
+        return False
+    shifted = gram - FULL_RANK_SHIFT * norm * np.eye(len(gram))
+    try:
+        sla.cholesky(shifted, lower=True, check_finite=False)
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
 def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
     """Basis (full coordinates, sparse) of null(Q) intersected with null(H).
 
     The null directions couple only through the conditions they share, so the problem
-    splits into connected components, each solved by a small dense SVD.
+    splits into connected components, each solved by a small dense SVD, unless one
+    Cholesky factorisation of its conditions' Gram matrix already shows it of full rank
+    (:func:`_clearly_full_rank`: the usual case; the 6-D Delaunay fit of the scaling sweep
+    spent 16 s in the QRs and SVDs of 48 such components).
     """
     k = N.shape[1]
     if k == 0:
@@ -202,6 +229,7 @@ def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
     HN.eliminate_zeros()
     pattern = (abs(HN).T @ abs(HN)).tocsr()
     ncomp, label = connected_components(pattern, directed=False)
+    gram = (HN.T @ HN).tocsr()
     blocks = []
     for comp in range(ncomp):
         cols = np.nonzero(label == comp)[0]
@@ -210,6 +238,8 @@ def _undetermined(N: sp.csc_matrix, H: sp.csr_matrix) -> sp.csc_matrix:
         if len(rows) == 0:
             blocks.append((cols, np.eye(len(cols))))
             continue
+        if _clearly_full_rank(gram[cols][:, cols].toarray()):
+            continue  # the conditions determine every direction: nothing to add
         dense = sub[rows].toarray()
         if dense.shape[0] > dense.shape[1]:
             # only V is needed: reduce the (tall) block to its triangular factor first;
@@ -480,22 +510,7 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
     K = spla.LinearOperator((M + m, M + m), matvec=kkt, dtype=float)
     rhs = np.concatenate([qg, np.zeros(m)])
     stable = None
-    # Passes over regularised KKT matrices (sigma, delta, GMRES after the refinement?):
-    # with conditions, one penalty KKT_DELTA and one KKT_DELTA_TIGHT; a pass that fails to
-    # converge hands over to the next. Dense (small) systems try KKT_DELTA first; sparse
-    # ones, where a second factorisation is what costs, the tight penalty (a few more
-    # refinement steps on well-conditioned conditions, 6 instead of 2 on a 3-D S^1_4 Kuhn
-    # grid, instead of a stall on nearly dependent ones). Last: the unregularised KKT
-    # matrix with pivoting (SuperLU).
-    sigma = KKT_SIGMA * scale
-    if not m:
-        passes = [(sigma, KKT_DELTA * scale, True)]
-    elif M <= DENSE_MAX:
-        passes = [(sigma, KKT_DELTA * scale, False), (sigma, KKT_DELTA_TIGHT * scale, True)]
-    else:
-        passes = [(sigma, KKT_DELTA_TIGHT * scale, False), (sigma, KKT_DELTA * scale, True)]
-    passes.append((0.0, KKT_DELTA * scale, True))
-    for sigma, delta, krylov in passes:
+    for sigma, delta, krylov in kkt_passes(M, m, scale):
         pre = None
         if sigma > 0 and M <= DENSE_MAX:
             pre = _dense_preconditioner(Qg, A, At, sigma, delta)
@@ -517,6 +532,37 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
         # of 1e10 and more) limits the coefficients, not the solver
         return stable[:M]
     raise singular
+
+
+def kkt_passes(M: int, m: int, scale: float) -> list[tuple[float, float, bool]]:
+    """The regularised KKT matrices ``[Qg + sigma I, A'; A, -delta I]`` to factorise, in
+    order, for a system of M coefficients and m conditions: ``(sigma, delta, krylov)``,
+    ``krylov`` whether the refinement may end in GMRES. One list for the fit and for its
+    covariance (:mod:`simplexspline.spline.uncertainty.covariance`).
+
+    With conditions, one pass with the penalty KKT_DELTA and one with KKT_DELTA_TIGHT; a
+    pass that fails to converge hands over to the next. Dense (small) systems try
+    KKT_DELTA first; sparse ones, where a second factorisation is what costs, the tight
+    penalty (a few more refinement steps on well-conditioned conditions, 6 instead of 2 on
+    a 3-D S^1_4 Kuhn grid, instead of a stall on nearly dependent ones). Last: the
+    unregularised KKT matrix with pivoting (sigma = 0: SuperLU).
+
+    Parameters
+    ----------
+    M, m : int
+        Coefficients (C^0-reduced) and condition rows.
+    scale : float
+        The mean diagonal of G'QG; the conditions' rows scaled to norm ``scale``.
+    """
+    sigma = KKT_SIGMA * scale
+    if not m:
+        passes = [(sigma, KKT_DELTA * scale, True)]
+    elif M <= DENSE_MAX:
+        passes = [(sigma, KKT_DELTA * scale, False), (sigma, KKT_DELTA_TIGHT * scale, True)]
+    else:
+        passes = [(sigma, KKT_DELTA_TIGHT * scale, False), (sigma, KKT_DELTA * scale, True)]
+    passes.append((0.0, KKT_DELTA * scale, True))
+    return passes
 
 
 def _backward_error(K, z, rhs, Qg, A) -> float:

@@ -228,20 +228,26 @@ class WalkLocator:
         centres = self.lower + (np.indices(tuple(self.shape)).reshape(n, -1).T + 0.5
                                 ) * self.width
         _, seeds = cKDTree(corners.mean(axis=1)).query(centres)
-        self.seeds = np.asarray(seeds, dtype=np.int64).reshape(-1)
+        seeds = np.asarray(seeds, dtype=np.int64).reshape(-1)
         # Better seeds: the simplex containing each cell's centre (found by walking from
         # the nearest barycentre), so that most walks take no step at all.
-        found = kernels.walk_locate(centres, self.origin, self.tinv, self.neighbors,
-                                    self.lower, self.width, self.shape, self.seeds,
-                                    self.convex, INSIDE_TOL)
-        self.seeds = np.where(found >= 0, found, self.seeds)
+        found = kernels.walk_locate(centres, self._plan(seeds))
+        self.seeds = np.where(found >= 0, found, seeds)
+        #: The walk kernels' arguments (:func:`~simplexspline.spline.kernels.walk_plan`).
+        self.plan = self._plan(self.seeds)
+
+    def _plan(self, seeds: np.ndarray) -> tuple:
+        return kernels.walk_plan(self.origin, self.tinv, self.neighbors, self.lower,
+                                 self.width, self.shape, seeds, self.convex, INSIDE_TOL)
 
     def locate(self, x: np.ndarray) -> np.ndarray:
         """Simplex index of each point (the lowest-index containing one), -1 outside."""
-        out = kernels.walk_locate(x, self.origin, self.tinv, self.neighbors, self.lower,
-                                  self.width, self.shape, self.seeds, self.convex,
-                                  INSIDE_TOL)
-        rest = np.nonzero(out == -2)[0]
+        return self.settle(x, kernels.walk_locate(x, self.plan))
+
+    def settle(self, x: np.ndarray, sid: np.ndarray) -> np.ndarray:
+        """``sid`` from a walk kernel with the points it could not settle (-2) located by
+        the fallback, in place; returns ``sid``."""
+        rest = np.nonzero(sid == -2)[0]
         if len(rest):
-            out[rest] = self.fallback(x[rest])
-        return out
+            sid[rest] = self.fallback(x[rest])
+        return sid

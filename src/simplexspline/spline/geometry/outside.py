@@ -21,7 +21,7 @@ import numpy as np
 from simplexspline.errors import InputError, OutsideDomainError
 
 __all__ = ["AERO_POLICIES", "EXPORT_POLICIES", "OUTSIDE_POLICIES", "SPLINE_POLICIES",
-           "check_policy", "locate"]
+           "check_policy", "locate", "resolve_outside"]
 
 #: Every outside policy of the project.
 OUTSIDE_POLICIES: tuple[str, ...] = ("nan", "raise", "extrapolate", "clamp")
@@ -64,7 +64,6 @@ def locate(triangulation, points: np.ndarray, outside: str = "nan"
     Parameters
     ----------
     triangulation : Triangulation
-        Anything with ``locate(points)`` (-1 outside) and ``nearest(points)``.
     points : ndarray, shape (N, n)
         Checked, finite points.
     outside : {'nan', 'raise', 'extrapolate'}, default 'nan'
@@ -79,9 +78,32 @@ def locate(triangulation, points: np.ndarray, outside: str = "nan"
         Points that have a simplex.
     """
     check_policy(outside, SPLINE_POLICIES)
-    sid = triangulation.locate(points)
+    return resolve_outside(triangulation, points, triangulation._locate_checked(points),
+                           outside)
+
+
+def resolve_outside(triangulation, points: np.ndarray, sid: np.ndarray, outside: str = "nan"
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The outside policy applied to located points (the second half of :func:`locate`,
+    for callers that located the points themselves).
+
+    Parameters
+    ----------
+    triangulation : Triangulation
+    points : ndarray, shape (N, n)
+        Checked, finite points.
+    sid : ndarray of int64, shape (N,)
+        Their simplices, -1 outside; changed in place under ``'extrapolate'``.
+    outside : {'nan', 'raise', 'extrapolate'}, default 'nan'
+        As in :func:`locate` (checked by the caller).
+
+    Returns
+    -------
+    simplices : ndarray of int64, shape (N,)
+    valid : ndarray of bool, shape (N,)
+    """
     valid = sid >= 0
-    if not np.all(valid):
+    if not valid.all():
         bad = np.nonzero(~valid)[0]
         if outside == "raise":
             raise OutsideDomainError(

@@ -447,6 +447,31 @@ class Triangulation:
         pts = as_points(x, name="x", ndim=self.ndim)
         return self._locator.locate(pts)
 
+    def _locate_checked(self, pts: np.ndarray) -> np.ndarray:
+        """:meth:`locate` for points already checked by ``as_points`` (kernel)."""
+        return self._locator.locate(pts)
+
+    def _locate_evaluate(self, pts: np.ndarray, coef: np.ndarray, degree: int
+                         ) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Simplex (-1 outside) and value (NaN outside) of the B-form spline with
+        coefficients ``coef`` (J, d_hat) at checked points, and whether any point is
+        outside; compiled (numba only). On walk triangulations one fused pass: the walk
+        hands its barycentric coordinates to the basis."""
+        loc = self._locator
+        if not isinstance(loc, WalkLocator):
+            sid = loc.locate(pts)
+            values = kernels.evaluate(pts, sid, self._origin, self._tinv, coef, degree)
+            return sid, values, bool((sid < 0).any())
+        sid, values, unlocated = kernels.walk_evaluate(pts, loc.plan, coef, degree)
+        if not unlocated:
+            return sid, values, False
+        raw = sid.copy()
+        loc.settle(pts, sid)
+        redo = np.nonzero((sid != raw) & (sid >= 0))[0]
+        values[redo] = kernels.evaluate(pts[redo], sid[redo], self._origin, self._tinv, coef,
+                                        degree)
+        return sid, values, bool((sid < 0).any())
+
     def barycentric(self, x, simplices) -> np.ndarray:
         """Barycentric coordinates of points with respect to given simplices.
 

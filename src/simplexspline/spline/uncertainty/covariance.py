@@ -107,9 +107,10 @@ class CovarianceEngine:
         chol = cache.setdefault("cholesky", {}) if cache is not None else None
         Qc = Qg.tocsc()
         Ad = (diag_mean * A).tocsr()
-        delta = S.KKT_DELTA * diag_mean
-        self._pres = [lambda s=sigma: S._preconditioner(Qc, Ad, s, delta, coords, chol)
-                      for sigma in (S.KKT_SIGMA * diag_mean, 0.0)]
+        # the fit's passes: on nearly dependent conditions (Delaunay slivers) the tight
+        # penalty converges where KKT_DELTA stalls
+        self._pres = [lambda s=sigma, d=delta: S._preconditioner(Qc, Ad, s, d, coords, chol)
+                      for sigma, delta, _ in S.kkt_passes(M, m, diag_mean)]
         self._pre = None
         self._which = 0
         self._factors = None
