@@ -75,6 +75,14 @@ GUST_HELD_SCALE = ("not estimated in turbulence (gusts in this maneuver): confou
 GUST_HELD_STRAIGHT = ("not estimated in a straight maneuver in turbulence (it trades against "
                       "the wind without a heading change): held at zero or the campaign "
                       "calibration")
+#: Why an air-data error the campaign calibration could not determine is not estimated in a
+#: maneuver with gusts: if the campaign's turning maneuvers together leave its sigma above
+#: half the prior, one maneuver cannot do better, and in turbulence its estimate drifts with
+#: the wind (a turning 15-20 s sum-of-sines in moderate turbulence: airspeed bias 3.8 +- 1.4
+#: m/s for a true 0.5, the wind 3 m/s off).
+GUST_HELD_UNCALIBRATED = ("not estimated in turbulence: the campaign calibration could not "
+                          "determine it (sigma above half the prior); held at zero (the "
+                          "sensor's calibration error stays in the data)")
 #: Channels a maneuver cannot be reconstructed without (at least one valid sample each).
 ESSENTIAL_MEASUREMENTS = ("tas", "alpha", "phi", "theta")
 
@@ -490,6 +498,9 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     if heading_excursion(task) < MIN_HEADING_CHANGE:
         gust_held.update({k: GUST_HELD_STRAIGHT for k in ("btas", "bbeta")
                           if k not in plan["held"]})
+    if "calibration" in task and not s.get("calibration_pass"):    # the campaign's 2nd pass
+        gust_held.update({k: GUST_HELD_UNCALIBRATED for k in ("btas", "balpha", "bbeta")
+                          if k not in plan["held"] and k not in gust_held})
     if not present["accelerometers"] or s["gust_std"] == 0:
         gusts = GustChoice(forward(0.0, math.nan), 0.0, math.nan, {}, math.nan)
     else:
