@@ -22,8 +22,8 @@ prints Markdown tables:
 
 Usage::
 
-    python benchmarks/bench_real_like.py                       # 12 maneuvers, seed 11
-    python benchmarks/bench_real_like.py --maneuvers 6 --turbulence light --no-identify
+    python benchmarks/bench_real_like.py                       # 12 maneuvers, seed 11, light
+    python benchmarks/bench_real_like.py --maneuvers 6 --turbulence none --no-identify
 """
 
 from __future__ import annotations
@@ -55,9 +55,12 @@ def _toml_vector(v) -> str:
     return "[" + ", ".join(f"{float(x):.6g}" for x in v) + "]"
 
 
-def installation(sensors: SensorModel) -> str:
-    """``[metadata.sensor_geometry]`` of the sensors' installation, without the lags."""
+def installation(sensors: SensorModel, lags: bool = False) -> str:
+    """``[metadata.sensor_geometry]`` of the sensors' installation, with the lags if asked."""
     lines = []
+    if lags:
+        lines += ["[metadata.sensor_geometry.lag_s]"]
+        lines += [f"{c} = {float(v):.6g}" for c, v in sensors.lag_s.items() if v] + [""]
     for vane in ("alpha_vane", "beta_vane"):
         g = getattr(sensors, vane)
         lines += [f"[metadata.sensor_geometry.{vane}]",
@@ -90,12 +93,15 @@ def main() -> None:
     ap.add_argument("--maneuvers", type=int, default=12)
     ap.add_argument("--seed", type=int, default=11)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--turbulence", default="none",
-                    help="none (default), light, moderate, severe: the filter's wind is "
-                         "constant per maneuver; see docs/reconstruction.md for turbulence")
+    ap.add_argument("--turbulence", default="light",
+                    help="JSBSim MIL-F-8785C turbulence on top of the steady wind: none, "
+                         "light (default: real flights always meet some), moderate, severe; "
+                         "the filter finds the gusts (docs/reconstruction.md, turbulence)")
     ap.add_argument("--turn-fraction", type=float, default=1.0,
                     help="fraction of the sum-of-sines maneuvers flown in a turn (1.0)")
     ap.add_argument("--no-identify", action="store_true", help="stop after the reconstruction")
+    ap.add_argument("--give-lags", action="store_true",
+                    help="give the channel lags in the mapping file (default: estimated)")
     ap.add_argument("--keep", type=Path, default=None,
                     help="write the record into this new directory and keep it")
     args = ap.parse_args()
@@ -114,7 +120,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         record = write_channel_record(df, args.keep or Path(tmp) / "record", rate_hz=10.0)
         mapping = record / "mapping.toml"
-        mapping.write_text(mapping.read_text() + "\n" + installation(sensors))
+        mapping.write_text(mapping.read_text() + "\n" + installation(sensors, args.give_lags))
         t0 = time.perf_counter()
         imported = import_record(mapping)
         t_import = time.perf_counter() - t0
@@ -134,16 +140,24 @@ def main() -> None:
           + (", ".join(f"{c} {v:.3f} s" for c, v in rec.lags_applied.items()) or "none")
           + " (simulated: " + ", ".join(f"{c} {v:g} s" for c, v in sensors.lag_s.items() if v)
           + ")\n")
-    print("| quantity | raw sensor RMS error | reconstructed RMS error |")
-    print("|---|---|---|")
+    print("| quantity | raw sensor RMS error | raw error std | reconstructed RMS error | "
+          "reconstructed error std |")
+    print("|---|---|---|---|---|")
     for c, unit in (("alpha", "rad"), ("beta", "rad"), ("tas", "m/s")):
-        raw = _rms(data[c] - data["true_" + c]) if c in data else float("nan")
-        raw_cell = "no sensor" if c not in data else f"{raw:.2e} {unit}"
-        print(f"| {c} | {raw_cell} | {_rms(d[c] - d['true_' + c]):.2e} {unit} |")
+        raw = (data[c] - data["true_" + c]) if c in data else None
+        raw_cells = ("no sensor | -" if raw is None
+                     else f"{_rms(raw):.2e} {unit} | {raw.std():.2e} {unit}")
+        e = d[c] - d["true_" + c]
+        print(f"| {c} | {raw_cells} | {_rms(e):.2e} {unit} | {e.std():.2e} {unit} |")
+    cal = d.attrs["reconstruction"]["air_data_calibration"]
+    print("\ncampaign air-data calibration (value, sigma): "
+          + (", ".join(f"{k} {v[0]:.3g} +- {v[1]:.2g}" for k, v in cal.items()) or "none")
+          + f"\nturbulence: {rec.sensors()['gusts']}\n")
 
     print("\n| maneuver | type | heading change [deg] | wind [m/s] | horizontal wind "
-          "error [m/s] | vertical [m/s] | reported sigma n, e [m/s] | wind statement |")
-    print("|---|---|---|---|---|---|---|---|")
+          "error [m/s] | vertical [m/s] | reported sigma n, e [m/s] | wind statement | "
+          "gusts [m/s, m] |")
+    print("|---|---|---|---|---|---|---|---|---|")
     errs = {}
     for m, g in d.groupby("maneuver"):
         e = (g[["wind_n", "wind_e", "wind_d"]].to_numpy()
@@ -157,7 +171,9 @@ def main() -> None:
               f"{math.hypot(g['true_wind_n'].mean(), g['true_wind_e'].mean()):.1f} | "
               f"{h:.2f} | {_rms(e[:, 2]):.2f} | "
               f"{sig['wind_n'][1]:.2f}, {sig['wind_e'][1]:.2f} | "
-              f"{'WEAK' if 'WEAK' in obs else 'estimated'} |")
+              f"{'WEAK' if 'WEAK' in obs else 'estimated'} | "
+              + (f"{gu['std']:g}, {gu['length_m']:g}" if (gu := rec.maneuvers[m]['gusts'])['std']
+                 else "still air") + " |")
     weak = [m for m in errs if "WEAK" in rec.maneuvers[m]["observability"]["wind"]]
     ok = [m for m in errs if m not in weak]
     for label, ms in (("turning (estimated)", ok), ("straight (WEAK)", weak)):

@@ -50,10 +50,13 @@ def test_reconstruct_writes_output_and_summary(campaign_file, tmp_path, capsys):
 def test_reconstruct_csv_output(campaign_file, tmp_path, capsys):
     out = tmp_path / "reconstructed.csv"
     assert main(["reconstruct", str(campaign_file), "-o", str(out), "--workers", "1", "-q",
-                 "--accelerations", "differentiate"]) == 0
+                 "--accelerations", "differentiate", "--gusts", "0"]) == 0
     assert capsys.readouterr().out == ""
     df, meta = read_flight_data(out)
     assert meta["reconstruction"]["accelerations"] == "differentiated"
+    assert meta["reconstruction"]["settings"]["gust_std"] == 0
+    assert main(["reconstruct", str(campaign_file), "-o", str(out), "--gusts", "strong"]) == 2
+    assert "--gusts: expected a number" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("output, message", [

@@ -41,8 +41,17 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help="geodetic latitude of the flights [deg] (52, the simulator's)")
     p.add_argument("--min-duration", type=arguments.positive, default=2.0,
                    help="reject maneuvers shorter than this [s] (2.0)")
+    p.add_argument("--gusts", type=_gusts, default="auto",
+                   help="turbulence: 'auto' (default: gusts estimated where the still-air "
+                   "model's air-data innovations show them, their intensity chosen by the "
+                   "likelihood), 0 (still air), or a gust standard deviation [m/s]")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     return p
+
+
+def _gusts(text: str) -> str | float:
+    """'auto' or a gust standard deviation >= 0 [m/s]."""
+    return "auto" if text == "auto" else arguments.non_negative_number(text)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
     settings = ReconstructionSettings(accelerations=args.accelerations,
                                       smoother=not args.no_smoother,
                                       latitude_deg=args.latitude,
-                                      min_duration_s=args.min_duration)
+                                      min_duration_s=args.min_duration,
+                                      gust_std=args.gusts)
     t0 = time.perf_counter()
     df, meta = read_flight_data(args.input, nan="ignore")
     flight = float(df.groupby("maneuver")["t"].agg(lambda t: t.max() - t.min()).sum())

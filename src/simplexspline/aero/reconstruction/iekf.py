@@ -18,6 +18,12 @@ extra evaluation of h), or after ``max_iter`` gains. The covariance is updated o
 last gain in Joseph form. Time update: ``kinematics.propagate`` (the discretisation
 matched to JSBSim), ``P = F P F' + G Sigma_u G' + Q_model``, where the IMU noise enters
 through G (the input columns of the transition matrix).
+
+The forward pass also returns the log-likelihood of the measurements under the model,
+``sum_k -(log det S_k + nu_k' S_k^-1 nu_k + m_k log 2 pi) / 2`` over the innovations
+``nu_k`` of the predictions and their covariances ``S_k`` (from the Cholesky factor the
+gain needs anyway): it scores candidate noise models on the same data
+(:mod:`~simplexspline.aero.reconstruction.gusts`).
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ from simplexspline.aero.reconstruction.kinematics import (
 __all__ = ["FilterNoise", "IteratedUpdate", "StateEstimate", "run_filter", "rts_smooth"]
 
 _TWO_PI = 2.0 * math.pi
+_LOG_TWO_PI = math.log(2.0 * math.pi)
 _EYE = np.eye(NX)
 
 
@@ -45,9 +52,9 @@ class StateEstimate:
 
     Attributes
     ----------
-    x : (23,) ndarray
+    x : (26,) ndarray
         Mean (:data:`~simplexspline.aero.reconstruction.kinematics.STATE_NAMES`).
-    P : (23, 23) ndarray
+    P : (26, 26) ndarray
         Covariance.
     """
 
@@ -64,7 +71,7 @@ class FilterNoise:
     input_std : (6,) ndarray
         IMU white-noise standard deviations per sample (``ax, ay, az`` [m/s^2], ``p, q, r``
         [rad/s]).
-    process_var : (23,) ndarray
+    process_var : (26,) ndarray
         Additional process-noise variances per step (model errors).
     measurement_std : (12,) ndarray
         Measurement-noise standard deviations.
@@ -122,9 +129,9 @@ def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarra
                      iteration: IteratedUpdate, sample: int, arm: np.ndarray | None = None):
     """Iterated measurement update of the prediction ``(x, P)`` (see the module docstring).
 
-    ``H`` (12, 23) is scratch space for the measurement Jacobian. Returns the updated
-    state (23,) and covariance (23, 23), the number of gains computed and the innovation
-    of the prediction with its predicted variances ((m,) each).
+    ``H`` (12, 26) is scratch space for the measurement Jacobian. Returns the updated
+    state (26,) and covariance (26, 26), the number of gains computed, the innovation
+    of the prediction with its predicted variances ((m,) each) and its log-likelihood.
     """
     sel, R, psi_j = meas.sel, meas.R, meas.psi_j
     sig = np.sqrt(P.diagonal())
@@ -139,7 +146,14 @@ def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarra
         S = Hs @ PHt + R
         if it == 0:
             innovation = (res, S.diagonal().copy())
-        _, Kt, info = dposv(S, PHt.T)       # S symmetric positive definite
+            # S symmetric positive definite; the last column gives S^-1 nu (likelihood)
+            c, Kt, info = dposv(S, np.column_stack((PHt.T, res)))
+            if info == 0:
+                loglik = -0.5 * (2.0 * np.log(np.abs(c.diagonal())).sum()
+                                 + res @ Kt[:, -1] + res.size * _LOG_TWO_PI)
+                Kt = Kt[:, :-1]
+        else:
+            _, Kt, info = dposv(S, PHt.T)
         if info != 0:
             raise np.linalg.LinAlgError(
                 f"innovation covariance not positive definite at sample {sample}")
@@ -157,14 +171,14 @@ def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarra
         if step < iteration.tol or it >= iteration.max_iter:
             break
     IKH = _EYE - K @ Hs
-    return xi, IKH @ P @ IKH.T + K @ R @ K.T, it, innovation
+    return xi, IKH @ P @ IKH.T + K @ R @ K.T, it, innovation, loglik
 
 
 def _predict(x: np.ndarray, P: np.ndarray, uk: np.ndarray, dt: float, gk: float,
              earth: EarthModel, F: np.ndarray, Qm: np.ndarray, var_u: np.ndarray,
-             specific_force: bool = True):
+             specific_force: bool = True, gust_decay: float = 1.0):
     """Time update of ``(x, P)`` over one step; writes the transition matrix into ``F``."""
-    x = propagate(x, uk, dt, gk, earth, F, specific_force)
+    x = propagate(x, uk, dt, gk, earth, F, specific_force, gust_decay)
     G = F[:9, 9:15]
     P = F @ P @ F.T + Qm
     P[:9, :9] += (G * var_u) @ G.T
@@ -174,13 +188,14 @@ def _predict(x: np.ndarray, P: np.ndarray, uk: np.ndarray, dt: float, gk: float,
 def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
                g: np.ndarray, earth: EarthModel, noise: FilterNoise,
                iteration: IteratedUpdate = IteratedUpdate(), *,
-               arm: np.ndarray | None = None, specific_force: bool = True) -> dict:
+               arm: np.ndarray | None = None, specific_force: bool = True,
+               gust_decay: float = 1.0) -> dict:
     """Forward pass of the iterated extended Kalman filter.
 
     Parameters
     ----------
     initial : StateEstimate
-        Initial state estimate (23,) and its covariance (23, 23).
+        Initial state estimate (26,) and its covariance (26, 26).
     u : (n, 6) ndarray
         Measured IMU inputs (``ax, ay, az`` [m/s^2], ``p, q, r`` [rad/s]); finite.
     z : (n, 12) ndarray
@@ -200,15 +215,18 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
         :func:`~simplexspline.aero.reconstruction.kinematics.measure`); None: at the c.g.
     specific_force : bool
         False without accelerometers (body velocities as a random walk; ``u[:, :3]`` unused).
+    gust_decay : float
+        ``exp(-dt / tau)`` of the gusts' Gauss-Markov process (their process noise is in
+        ``noise.process_var``); 1: gusts held.
 
     Returns
     -------
     dict
-        ``x_filt`` (n, 23), ``P_filt`` (n, 23, 23), ``x_pred`` (n, 23) and ``P_pred``
-        (n, 23, 23) (row k is the prediction of sample k; row 0 is the prior), ``F``
-        (n, 23, 23) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
+        ``x_filt`` (n, 26), ``P_filt`` (n, 26, 26), ``x_pred`` (n, 26) and ``P_pred``
+        (n, 26, 26) (row k is the prediction of sample k; row 0 is the prior), ``F``
+        (n, 26, 26) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
         prediction (NaN where not measured), ``innov_var`` (n, 12) their predicted variances,
-        ``iterations`` (n,) int.
+        ``iterations`` (n,) int, ``loglik`` (float) the log-likelihood of the measurements.
     """
     n = u.shape[0]
     x_filt = np.empty((n, NX))
@@ -228,21 +246,25 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
     all_ok = finite.all(axis=1)
     x = np.array(initial.x, dtype=float)
     P = np.array(initial.P, dtype=float)
+    loglik = 0.0
     for k in range(n):
         x_pred[k] = x
         P_pred[k] = P
         meas = _measured(z[k], finite[k], all_ok[k], R_full)
         if meas.z.size:
-            x, P, iters[k], (res, res_var) = _iterated_update(
+            x, P, iters[k], (res, res_var), ll = _iterated_update(
                 x, P, meas, H, iteration, k, None if arm is None else arm[k])
+            loglik += ll
             cols = slice(None) if meas.sel is None else meas.sel
             innov[k, cols] = res
             innov_var[k, cols] = res_var
         x_filt[k] = x
         P_filt[k] = P
-        x, P = _predict(x, P, u[k], dt, g[k], earth, Fs[k], Qm, var_u, specific_force)
+        x, P = _predict(x, P, u[k], dt, g[k], earth, Fs[k], Qm, var_u, specific_force,
+                        gust_decay)
     return {"x_filt": x_filt, "P_filt": P_filt, "x_pred": x_pred, "P_pred": P_pred, "F": Fs,
-            "innov": innov, "innov_var": innov_var, "iterations": iters}
+            "innov": innov, "innov_var": innov_var, "iterations": iters,
+            "loglik": float(loglik)}
 
 
 def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
@@ -261,8 +283,8 @@ def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.n
 
     Returns
     -------
-    x_s : (n, 23) ndarray
-    var_s : (n, 23) ndarray or None
+    x_s : (n, 26) ndarray
+    var_s : (n, 26) ndarray or None
         Smoothed variances, when ``covariance``.
     """
     xf, Pf, xp, Pp, F = out["x_filt"], out["P_filt"], out["x_pred"], out["P_pred"], out["F"]

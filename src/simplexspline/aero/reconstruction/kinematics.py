@@ -17,13 +17,17 @@ about 0.03 m/s^2, the size of an accelerometer bias: leaving them out would bias
 estimates. In the Jacobians they are treated as known inputs (their state derivatives are
 below 1e-6 of the retained terms).
 
-States (23): ``x, y, z`` [m] NED position from the maneuver's first GPS sample; ``u, v, w``
+States (26): ``x, y, z`` [m] NED position from the maneuver's first GPS sample; ``u, v, w``
 [m/s] (Earth-relative); ``phi, theta, psi`` [rad] (psi is kept unwrapped); accelerometer
 biases ``bax, bay, baz`` [m/s^2]; gyro biases ``bp, bq, br`` [rad/s]; air-data errors
-``balpha``, ``bbeta`` [rad] (vane offsets) and ``btas`` [m/s] (airspeed bias); the wind
-``wind_n, wind_e, wind_d`` [m/s] (NED velocity of the air mass); vane scale-factor errors
-``kalpha, kbeta`` [-]. Which of them are estimated depends on the channels present (the
-driver holds the unobservable ones at their prior).
+``balpha``, ``bbeta`` [rad] (vane offsets) and ``btas`` [m/s] (airspeed bias); the steady
+wind ``wind_n, wind_e, wind_d`` [m/s] (NED velocity of the air mass, constant or a random
+walk); vane scale-factor errors ``kalpha, kbeta`` [-]; the gusts ``gust_n, gust_e,
+gust_d`` [m/s] (turbulence on top of the steady wind: a zero-mean first-order Gauss-Markov
+process, ``g[k+1] = a g[k] + w``, whose decay ``a`` the caller gives; see
+:mod:`~simplexspline.aero.reconstruction.gusts`). The air moves at wind + gust. Which
+states are estimated depends on the channels present (the driver holds the unobservable
+ones at their prior).
 
 Measurements (12): GPS position ``x_gps, y_gps, z_gps``, GPS velocity ``vn_gps, ve_gps,
 vd_gps``, air data ``tas, alpha, beta`` (of the air-relative velocity, at the vanes'
@@ -47,7 +51,7 @@ import numpy as np
 
 __all__ = [
     "STATE_NAMES", "INPUT_NAMES", "MEASUREMENT_NAMES", "BIAS_STATES", "WIND_STATES",
-    "SCALE_STATES", "EarthModel",
+    "SCALE_STATES", "GUST_STATES", "GUST", "EarthModel",
     "normal_gravity", "propagate", "measure",
 ]
 
@@ -55,7 +59,7 @@ __all__ = [
 STATE_NAMES: tuple[str, ...] = (
     "x", "y", "z", "u", "v", "w", "phi", "theta", "psi",
     "bax", "bay", "baz", "bp", "bq", "br", "balpha", "bbeta", "btas",
-    "wind_n", "wind_e", "wind_d", "kalpha", "kbeta",
+    "wind_n", "wind_e", "wind_d", "kalpha", "kbeta", "gust_n", "gust_e", "gust_d",
 )
 #: IMU inputs, in order (schema columns).
 INPUT_NAMES: tuple[str, ...] = ("ax", "ay", "az", "p", "q", "r")
@@ -73,6 +77,10 @@ BIAS_STATES: dict[str, str] = {
 WIND_STATES: tuple[str, ...] = ("wind_n", "wind_e", "wind_d")
 #: Vane scale-factor errors (the vane reads (1 + k) times the local flow angle) [-].
 SCALE_STATES: dict[str, str] = {"kalpha": "alpha", "kbeta": "beta"}
+#: Gust states (NED, turbulence on top of the steady wind) [m/s].
+GUST_STATES: tuple[str, ...] = ("gust_n", "gust_e", "gust_d")
+#: Slice of the gust states in the state vector.
+GUST = slice(23, 26)
 NX = len(STATE_NAMES)
 NZ = len(MEASUREMENT_NAMES)
 #: index of psi in the measurement vector (its innovation is wrapped to [-pi, pi)).
@@ -178,12 +186,13 @@ _F_INDEX = np.array([i * NX + j for i, j in _F_ENTRIES])
 
 
 def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthModel,
-              F: np.ndarray, specific_force: bool = True) -> np.ndarray:
+              F: np.ndarray, specific_force: bool = True, gust_decay: float = 1.0
+              ) -> np.ndarray:
     """One step of the state equations and its (first-order) transition matrix.
 
     Parameters
     ----------
-    x : (23,) ndarray
+    x : (26,) ndarray
         State at step k.
     u : (6,) ndarray
         Measured IMU inputs: specific force ``ax, ay, az`` [m/s^2] over the step (mean of
@@ -193,7 +202,7 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
     g : float
         Gravity at this altitude [m/s^2].
     earth : EarthModel
-    F : (23, 23) ndarray
+    F : (26, 26) ndarray
         Output: the transition matrix I + dt * df/dx. Only the model's non-trivial
         entries are written: pass the identity (or a matrix returned by an earlier call
         with the same ``specific_force``) so that every other entry is already that of the
@@ -201,10 +210,12 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
     specific_force : bool
         False when there are no accelerometers: the body velocities are then a random walk
         (held, to be driven by process noise) and ``u[:3]`` is ignored.
+    gust_decay : float
+        ``exp(-dt / tau)`` of the gusts' Gauss-Markov process (1: held).
 
     Returns
     -------
-    (23,) ndarray
+    (26,) ndarray
         State at step k + 1.
     """
     (_, _, _, uu, vv, ww, phi, theta, psi, bax, bay, baz, bp, bq, br) = x[:15].tolist()
@@ -282,6 +293,8 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
         -dt, -dt * sf * tt, -dt * cf * tt, -dt * cf, dt * sf, -dt * sf / ct, -dt * cf / ct,
     )
     F.flat[_F_INDEX] = vals
+    out[GUST] *= gust_decay
+    F[23, 23] = F[24, 24] = F[25, 25] = gust_decay
     if not specific_force:
         out[3:6] = x[3:6]
         F[3:6, :] = 0.0
@@ -306,15 +319,16 @@ def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
             ) -> np.ndarray:
     """Predicted measurements and their Jacobian.
 
-    The air data see the air-relative velocity ``V_a = V_b - C_bn W`` (W the wind states);
+    The air data see the air-relative velocity ``V_a = V_b - C_bn W`` (W the steady wind
+    plus the gusts);
     the vanes see it at their position, ``V_a + omega x r``, and read ``(1 + k)`` times the
     flow angle there plus their offset. The airspeed is that of the c.g.
 
     Parameters
     ----------
-    x : (23,) ndarray
+    x : (26,) ndarray
         State.
-    H : (12, 23) ndarray or None
+    H : (12, 26) ndarray or None
         Output: d h / d x (overwritten in place); None to skip the Jacobian.
     arm : (6,) ndarray, optional
         ``omega x r`` [m/s] of the alpha vane (first three) and of the beta vane (last
@@ -327,7 +341,8 @@ def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
         ``beta``, ``phi``, ``theta``, ``psi`` [rad] (psi unwrapped, as the state).
     """
     (px, py, pz, uu, vv, ww, phi, theta, psi, _, _, _, _, _, _, ba, bb, bv,
-     wn, we, wd, ka, kb) = x.tolist()
+     wn, we, wd, ka, kb, gn, ge, gd) = x.tolist()
+    wn, we, wd = wn + gn, we + ge, wd + gd      # the air moves at wind + gust
     C = _dcm(phi, theta, psi)
     cf, sf = math.cos(phi), math.sin(phi)
     ct, st = math.cos(theta), math.sin(theta)
@@ -385,6 +400,7 @@ def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
     for j, dC in enumerate(_dcm_derivatives(cf, sf, ct, st, cp, sp)):
         H[6:9, 6 + j] = -grads @ (dC.T @ W)
     H[6:9, 18:21] = -grads @ Cm.T
+    H[6:9, 23:26] = H[6:9, 18:21]
     H[6, 17] = 1.0
     H[7, 15] = 1.0
     H[8, 16] = 1.0
