@@ -566,3 +566,39 @@ def test_covariance_columns_take_the_fits_penalty_passes(monkeypatch):
     assert seen and seen[0] == pytest.approx(first[:2], rel=1e-12)
     assert seen[0][1] == pytest.approx(constrained.KKT_DELTA_TIGHT * scale, rel=1e-12)
     np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-10 * np.abs(want).max())
+
+
+@pytest.mark.parametrize("ridge", [1e-8, None])
+def test_a_ridge_fit_solved_to_round_off_skips_the_unregularised_pass(monkeypatch, ridge):
+    """When no regularised pass meets the forward-error tolerance but one solved the
+    system to round-off, a ridge fit returns that solution: the unregularised KKT pass
+    (SuperLU with pivoting, then GMRES) is kept for fits without a ridge."""
+    from simplexspline.spline.fit import constrained
+
+    rng = np.random.default_rng(5)
+    tri = Triangulation.delaunay(rng.random((9, 3)))
+    x, _ = data_in_simplices(tri, 40, rng)
+    y = smooth_function(x) + 0.05 * rng.standard_normal(len(x))
+    space = SplineSpace(tri, 3, 1)
+    ne = space.normal_equations(x, y)
+    want = space.solve(ne, ridge=ridge).coefficients
+    sigmas = []
+    real_pre, real_refine = constrained._preconditioner, constrained._refine
+
+    def spy(Qg, A, sigma, delta, *args, **kwargs):
+        sigmas.append(sigma)
+        return real_pre(Qg, A, sigma, delta, *args, **kwargs)
+
+    def stalls(solve, K, rhs, M, tol=1e-8, krylov=True, last_iterate=False):
+        out, last = real_refine(solve, K, rhs, M, tol, krylov, last_iterate=True)
+        return (None, last) if last_iterate else None    # "no convergence", a good iterate
+
+    monkeypatch.setattr(constrained, "DENSE_MAX", 0)
+    monkeypatch.setattr(constrained, "_preconditioner", spy)
+    monkeypatch.setattr(constrained, "_refine", stalls)
+    got = space.solve(ne, ridge=ridge).coefficients
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-9 * np.abs(want).max())
+    if ridge:
+        assert sigmas and all(s > 0 for s in sigmas)        # the regularised passes only
+    else:
+        assert sigmas[-1] == 0.0                            # no ridge: the last pass too
