@@ -589,8 +589,8 @@ def test_a_ridge_fit_solved_to_round_off_skips_the_unregularised_pass(monkeypatc
         sigmas.append(sigma)
         return real_pre(Qg, A, sigma, delta, *args, **kwargs)
 
-    def stalls(solve, K, rhs, M, tol=1e-8, krylov=True, last_iterate=False):
-        out, last = real_refine(solve, K, rhs, M, tol, krylov, last_iterate=True)
+    def stalls(solve, K, rhs, M, tol=1e-8, krylov=True, last_iterate=False, **kwargs):
+        out, last = real_refine(solve, K, rhs, M, tol, krylov, last_iterate=True, **kwargs)
         return (None, last) if last_iterate else None    # "no convergence", a good iterate
 
     monkeypatch.setattr(constrained, "DENSE_MAX", 0)
@@ -602,3 +602,39 @@ def test_a_ridge_fit_solved_to_round_off_skips_the_unregularised_pass(monkeypatc
         assert sigmas and all(s > 0 for s in sigmas)        # the regularised passes only
     else:
         assert sigmas[-1] == 0.0                            # no ridge: the last pass too
+
+
+@pytest.mark.parametrize("ridge", [1e-8, None])
+def test_gmres_aims_at_the_residual_the_fit_needs(monkeypatch, ridge):
+    """After a stalled refinement GMRES runs to round-off only without a ridge; a ridge
+    fit's relaxed forward tolerance needs no residual below 1e-2 of it."""
+    from simplexspline.spline.fit import constrained
+
+    rng = np.random.default_rng(5)
+    tri = Triangulation.delaunay(rng.random((9, 3)))
+    x, _ = data_in_simplices(tri, 40, rng)
+    y = smooth_function(x) + 0.05 * rng.standard_normal(len(x))
+    space = SplineSpace(tri, 3, 1)
+    ne = space.normal_equations(x, y)
+    want = space.solve(ne, ridge=ridge).coefficients
+    asked, used = [], []
+    real_refine, real_gmres = constrained._refine, constrained.spla.gmres
+
+    def refine(*args, gmres_rtol=None, **kwargs):
+        asked.append(gmres_rtol)
+        return real_refine(*args, gmres_rtol=gmres_rtol, **kwargs)
+
+    def gmres(*args, rtol, **kwargs):
+        used.append(rtol)
+        return real_gmres(*args, rtol=rtol, **kwargs)
+
+    monkeypatch.setattr(constrained, "REFINE_MAXITER", 1)    # refinements "stall"
+    monkeypatch.setattr(constrained, "_refine", refine)
+    monkeypatch.setattr(constrained.spla, "gmres", gmres)
+    got = space.solve(ne, ridge=ridge).coefficients
+    assert asked and set(used) <= set(asked)
+    if ridge:
+        assert min(asked) >= 1e-8 and max(asked) < 1e-5
+    else:
+        assert set(asked) == {constrained.GMRES_RTOL} and used
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-8 * np.abs(want).max())
