@@ -568,6 +568,17 @@ def test_covariance_columns_take_the_fits_penalty_passes(monkeypatch):
     np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-10 * np.abs(want).max())
 
 
+def _small_fit(ridge):
+    """A 3-D S^1_3 Delaunay space, its normal equations and the fit's coefficients."""
+    rng = np.random.default_rng(5)
+    tri = Triangulation.delaunay(rng.random((9, 3)))
+    x, _ = data_in_simplices(tri, 40, rng)
+    y = smooth_function(x) + 0.05 * rng.standard_normal(len(x))
+    space = SplineSpace(tri, 3, 1)
+    ne = space.normal_equations(x, y)
+    return space, ne, space.solve(ne, ridge=ridge).coefficients
+
+
 @pytest.mark.parametrize("ridge", [1e-8, None])
 def test_a_ridge_fit_solved_to_round_off_skips_the_unregularised_pass(monkeypatch, ridge):
     """When no regularised pass meets the forward-error tolerance but one solved the
@@ -575,13 +586,7 @@ def test_a_ridge_fit_solved_to_round_off_skips_the_unregularised_pass(monkeypatc
     (SuperLU with pivoting, then GMRES) is kept for fits without a ridge."""
     from simplexspline.spline.fit import constrained
 
-    rng = np.random.default_rng(5)
-    tri = Triangulation.delaunay(rng.random((9, 3)))
-    x, _ = data_in_simplices(tri, 40, rng)
-    y = smooth_function(x) + 0.05 * rng.standard_normal(len(x))
-    space = SplineSpace(tri, 3, 1)
-    ne = space.normal_equations(x, y)
-    want = space.solve(ne, ridge=ridge).coefficients
+    space, ne, want = _small_fit(ridge)
     sigmas = []
     real_pre, real_refine = constrained._preconditioner, constrained._refine
 
@@ -610,13 +615,7 @@ def test_gmres_aims_at_the_residual_the_fit_needs(monkeypatch, ridge):
     fit's relaxed forward tolerance needs no residual below 1e-2 of it."""
     from simplexspline.spline.fit import constrained
 
-    rng = np.random.default_rng(5)
-    tri = Triangulation.delaunay(rng.random((9, 3)))
-    x, _ = data_in_simplices(tri, 40, rng)
-    y = smooth_function(x) + 0.05 * rng.standard_normal(len(x))
-    space = SplineSpace(tri, 3, 1)
-    ne = space.normal_equations(x, y)
-    want = space.solve(ne, ridge=ridge).coefficients
+    space, ne, want = _small_fit(ridge)
     asked, used = [], []
     real_refine, real_gmres = constrained._refine, constrained.spla.gmres
 
