@@ -217,6 +217,14 @@ def test_cg_columns_without_forces_or_with_gaps_are_reported(ideal_campaign):
     assert coef.attrs["moment_reference"]["point_m"] is None
     assert "NOT transferred" in coef.attrs["moment_reference"]["source"]
     np.testing.assert_allclose(coef["Cm"], df["true_Cm"], atol=1e-6)
+    part = df.copy()                    # one maneuver without accelerometers
+    one = part["maneuver"] == part["maneuver"].iloc[0]
+    part.loc[one, ["ax", "ay", "az"]] = np.nan
+    coef, _ = aerodynamic_coefficients(part, accelerations="measured")
+    assert coef.loc[one, ["Cl", "Cm", "Cn"]].isna().all().all()
+    np.testing.assert_allclose(coef.loc[~one, "Cm"], coef.loc[~one, "true_Cm"], atol=1e-6)
+    assert f"; {int(one.sum())} samples without force coefficients" in \
+        coef.attrs["moment_reference"]["source"]
     gap = df.copy()
     gap.loc[gap.index[5], "x_cg"] = np.nan
     with pytest.raises(FlightDataError, match="x_cg, y_cg, z_cg hold NaN"):

@@ -225,15 +225,20 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
             raise FlightDataError("the c.g. columns x_cg, y_cg, z_cg hold NaN or inf where "
                                   "the moments are known: fill them (the c.g. moves "
                                   "slowly: interpolate) or drop the columns")
-        if not np.isfinite(forces[usable]).all():
+        forced = usable & np.isfinite(forces).all(axis=1)
+        if not forced.any():
             reference["source"] = ("the c.g.: NOT transferred to a fixed point (no force "
                                    "coefficients: no accelerometers), so a moving c.g. "
                                    "stays in the moment coefficients")
         else:
             ref, source = _moment_reference(df, meta, cg[usable])
             arm = cg - ref
-            moved = transfer_moments(forces, moments, arm, b, c)
+            moved = transfer_moments(forces, moments, arm, b, c)   # NaN without forces
             out.update(zip(COEFFICIENTS[3:], moved.T))
+            lost = int(np.count_nonzero(usable & ~forced))
+            if lost:   # about the c.g. there: one frame or none, never a mix
+                source += (f"; {lost} samples without force coefficients (no "
+                           "accelerometers there) have no moment coefficients either")
             truth = [f"true_{n}" for n in COEFFICIENTS]
             if all(n in df.columns for n in truth):
                 true = df[truth].to_numpy(dtype=float)
