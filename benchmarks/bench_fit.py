@@ -314,12 +314,17 @@ def bench_delaunay(rows: list, repeats: int, quick: bool) -> None:
                  "fit <= 0.064 s"))
 
 
-def bench_delaunay_large(rows: list, repeats: int, quick: bool) -> None:
+def _delaunay_3d(nverts: int, npts: int):
+    """Delaunay triangulation of random 3-D vertices, points in it and a smooth function."""
     rng = np.random.default_rng(7)
-    nverts, npts = (200, 200_000) if quick else (850, 2_000_000)
     tri = Triangulation.delaunay(rng.random((nverts, 3)))
     x = in_simplices(tri, npts, rng)
-    y = np.sin(3 * x[:, 0]) * np.cos(2 * x[:, 1]) + x[:, 2] ** 3
+    return tri, x, np.sin(3 * x[:, 0]) * np.cos(2 * x[:, 1]) + x[:, 2] ** 3
+
+
+def bench_delaunay_large(rows: list, repeats: int, quick: bool) -> None:
+    nverts, npts = (200, 200_000) if quick else (850, 2_000_000)
+    tri, x, y = _delaunay_3d(nverts, npts)
     t_setup, space = median_time(lambda: _space_setup(tri, 4, 1), 1)
     cpu = time.process_time()
     t_ne, ne = median_time(lambda: space.normal_equations(x, y), 1)
@@ -345,11 +350,8 @@ def bench_ordering(rows: list, repeats: int, quick: bool) -> None:
     from simplexspline.spline.fit import constrained
     from simplexspline.spline.fit.cholesky import SparseCholesky
 
-    rng = np.random.default_rng(7)
     nverts, npts = (80, 50_000) if quick else (200, 200_000)
-    tri = Triangulation.delaunay(rng.random((nverts, 3)))
-    x = in_simplices(tri, npts, rng)
-    y = np.sin(3 * x[:, 0]) * np.cos(2 * x[:, 1]) + x[:, 2] ** 3
+    tri, x, y = _delaunay_3d(nverts, npts)
     space = _space_setup(tri, 4, 1)
     system = space.system
     ne = space.normal_equations(x, y)

@@ -18,7 +18,6 @@ import scipy.sparse as sp
 from simplexspline.errors import (
     InputError,
     ModelFileError,
-    OutsideDomainError,
     SimplexSplineError,
 )
 from simplexspline.spline import kernels
@@ -44,6 +43,7 @@ from simplexspline.spline.geometry.outside import (
     SPLINE_POLICIES,
     check_policy,
     locate,
+    located_data,
     resolve_outside,
 )
 from simplexspline.spline.inputs import as_points, check_basis_size, check_degree
@@ -175,12 +175,7 @@ class SplineSpace:
         """
         tri = self.triangulation
         pts = as_points(x, name="x", ndim=tri.ndim)
-        sid = tri.locate(pts)
-        out = np.nonzero(sid < 0)[0]
-        if len(out):
-            raise OutsideDomainError(
-                f"{len(out)} points lie outside the triangulation (first rows: "
-                f"{out[:5].tolist()})", out)
+        sid = located_data(tri, pts)
         B = basis_values(tri._locator_barycentric(pts, sid), self.degree)
         dhat = self.nbasis
         cols = sid[:, None] * dhat + np.arange(dhat)[None, :]

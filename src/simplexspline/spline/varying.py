@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from simplexspline.errors import InputError, OutsideDomainError
+from simplexspline.errors import InputError
 from simplexspline.spline import kernels
 from simplexspline.spline.geometry.barycentric import direction_coordinates
 from simplexspline.spline.bform import (
@@ -41,7 +41,7 @@ from simplexspline.spline.continuity import build_conditions
 from simplexspline.spline.fit.constrained import global_points, solve_constrained
 from simplexspline.spline.fit.penalty import penalty_blocks
 from simplexspline.spline.formats.model_file import ModelRecord, read_model, save_spline
-from simplexspline.spline.geometry.outside import locate
+from simplexspline.spline.geometry.outside import locate, located_data
 from simplexspline.spline.inputs import as_points, as_values, as_weights
 from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.fit.penalty import solve_penalized
@@ -51,18 +51,6 @@ __all__ = ["TermGrams", "VaryingCoefficientSpace", "VaryingNormalEquations",
 
 #: Points per chunk when accumulating (bounds the (K d_hat) x chunk temporary).
 CHUNK = 1 << 16
-
-
-def _located(tri, pts: np.ndarray) -> np.ndarray:
-    """The simplex of every data point, shape (N,); OutsideDomainError naming the rows
-    that lie outside ``tri``."""
-    sid = tri.locate(pts)
-    out = np.nonzero(sid < 0)[0]
-    if len(out):
-        raise OutsideDomainError(
-            f"{len(out)} of {len(pts)} points lie outside the triangulation (first rows: "
-            f"{out[:5].tolist()}); drop them or enlarge the triangulation", out)
-    return sid
 
 
 def _multipliers(m, npts: int, nterms: int) -> np.ndarray:
@@ -220,7 +208,7 @@ class VaryingNormalEquations(BlockSums):
         vals = as_values(y, len(pts))
         mult = _multipliers(m, len(pts), self.nterms)
         w = as_weights(weights, len(pts))
-        sid = _located(tri, pts)
+        sid = located_data(tri, pts)
         with kernels.one_blas_thread():
             for s in range(0, len(pts), CHUNK):
                 e = s + CHUNK
@@ -313,7 +301,7 @@ class TermGrams:
         pts = as_points(z, name="z", ndim=triangulation.ndim)
         vals = as_values(y, len(pts))
         w = as_weights(weights, len(pts))
-        sid = _located(triangulation, pts)
+        sid = located_data(triangulation, pts)
         #: Sample order sorted by simplex (stable), shape (N,).
         self.order = np.argsort(sid, kind="stable")
         sid_s = sid[self.order]

@@ -21,7 +21,7 @@ import numpy as np
 from simplexspline.errors import InputError, OutsideDomainError
 
 __all__ = ["AERO_POLICIES", "EXPORT_POLICIES", "OUTSIDE_POLICIES", "SPLINE_POLICIES",
-           "check_policy", "locate", "resolve_outside"]
+           "check_policy", "locate", "located_data", "resolve_outside"]
 
 #: Every outside policy of the project.
 OUTSIDE_POLICIES: tuple[str, ...] = ("nan", "raise", "extrapolate", "clamp")
@@ -52,6 +52,33 @@ def check_policy(policy: str, allowed: Sequence[str] = SPLINE_POLICIES, *,
     if policy not in allowed:
         raise InputError(f"{name} must be one of {tuple(allowed)}, got {policy!r}")
     return policy
+
+
+def located_data(triangulation, points: np.ndarray) -> np.ndarray:
+    """The simplex of every data point of a fit, which must all lie inside.
+
+    Parameters
+    ----------
+    triangulation : Triangulation
+    points : ndarray, shape (N, n)
+        Checked, finite points.
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+
+    Raises
+    ------
+    OutsideDomainError
+        Naming the rows outside the triangulation.
+    """
+    sid = triangulation.locate(points)
+    out = np.nonzero(sid < 0)[0]
+    if len(out):
+        raise OutsideDomainError(
+            f"{len(out)} of {len(points)} points lie outside the triangulation (first rows: "
+            f"{out[:5].tolist()}); drop them or enlarge the triangulation", out)
+    return sid
 
 
 def locate(triangulation, points: np.ndarray, outside: str = "nan"
