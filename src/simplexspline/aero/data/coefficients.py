@@ -106,7 +106,7 @@ def transfer_moments(forces: np.ndarray, moments: np.ndarray, arm: np.ndarray, b
     return np.asarray(moments, dtype=float) + rxF / np.array([b, cbar, b])
 
 
-def _moment_reference(df, meta: Mapping, cg: np.ndarray) -> tuple[np.ndarray, str]:
+def _moment_reference(meta: Mapping, cg: np.ndarray) -> tuple[np.ndarray, str]:
     """The fixed point the moments are transferred to, and where it came from."""
     given = meta.get("moment_reference_m")
     if given is not None:
@@ -231,7 +231,7 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
                                    "coefficients: no accelerometers), so a moving c.g. "
                                    "stays in the moment coefficients")
         else:
-            ref, source = _moment_reference(df, meta, cg[usable])
+            ref, source = _moment_reference(meta, cg[usable])
             arm = cg - ref
             moved = transfer_moments(forces, moments, arm, b, c)   # NaN without forces
             out.update(zip(COEFFICIENTS[3:], moved.T))
