@@ -11,8 +11,13 @@ behind (a killed run's temporaries, whose writer is gone, are removed by the nex
 
 Moments: ``start`` (0.3 s: Python still importing), ``mid`` (halfway between the end of
 the imports and the end of the first run) and ``write`` (as soon as the output's temporary
-file or staging directory appears). The default suite kills ``identify`` twice while it
-writes; the full sweep (three commands x two signals x three moments) is marked slow.
+file or staging directory appears). For the ``write`` moment the command runs on a slow
+disk: every ``os.replace`` waits a second first, so that the signal lands while the output
+is being written however loaded the machine is. (Without it, a write of a few
+milliseconds could end, and the interpreter exit past its last bytecode, between the
+watcher seeing the temporary and the signal: a SIGINT then never reaches Python, exit 0.)
+The default suite kills ``identify`` twice while it writes; the full sweep (three commands
+x two signals x three moments) is marked slow.
 """
 
 from __future__ import annotations
@@ -33,6 +38,17 @@ from simplexspline.aero.data.flight_data import SCHEMA_VERSION, write_flight_dat
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="POSIX signals and process groups")
 
 CLI = [sys.executable, "-m", "simplexspline"]
+
+#: The command through the same launcher, on a slow disk (each rename waits a second).
+SLOW_WRITE_CLI = [sys.executable, "-c", (
+    "import os, sys, time\n"
+    "_replace = os.replace\n"
+    "def _slow_replace(*args, **kwargs):\n"
+    "    time.sleep(1.0)\n"
+    "    return _replace(*args, **kwargs)\n"
+    "os.replace = _slow_replace\n"
+    "from simplexspline.launcher import main\n"
+    "raise SystemExit(main())\n")]
 
 
 def _snapshot(root: Path) -> dict:
@@ -71,7 +87,7 @@ def _killed(args: list, cwd: Path, sig: int, moment: str, watch: Path,
     """Run the command and send ``sig`` to its process group at ``moment``; returns
     (exit code, stderr, whether the signal was sent before the command ended)."""
     old = set(_temporaries(watch))                     # a previous killed run's
-    proc = subprocess.Popen(CLI + args, cwd=cwd, stdout=subprocess.DEVNULL,
+    proc = subprocess.Popen((SLOW_WRITE_CLI if moment == "write" else CLI) + args, cwd=cwd, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, start_new_session=True,
                             preexec_fn=_default_sigint)
     t0 = time.monotonic()
