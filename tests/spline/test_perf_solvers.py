@@ -187,6 +187,24 @@ def test_sparse_cholesky_with_decoupled_blocks(leaf):
     assert np.abs(P @ f.solve(b) - b).max() < 1e-10
 
 
+def test_sparse_cholesky_with_an_empty_separator(capfd):
+    """A region that falls apart into two uncoupled halves gets an empty separator whose
+    front owns nothing but passes its children's updates on (dsyrk once rejected the
+    rank-0 update and OpenBLAS printed "On entry to DSYRK parameter number 7 had an
+    illegal value", seen in a paper-preset Cl search)."""
+    n = 1200
+    off = np.full(n - 1, -1.0)
+    off[299] = 0.0                                  # no coupling across this gap
+    P = sp.diags([off, np.full(n, 4.0), off], [-1, 0, 1], format="csr")
+    P.eliminate_zeros()
+    chol = SparseCholesky(P, np.arange(n, dtype=float)[:, None])
+    empty = [(s, e, len(U)) for s, e, _L, _W, U in chol.factors if s == e]
+    assert empty and all(u > 0 for *_, u in empty)  # the case: owns nothing, updates later
+    b = np.random.default_rng(1).normal(size=n)
+    np.testing.assert_allclose(chol.solve(b), spla.spsolve(P.tocsc(), b), rtol=1e-12)
+    assert "DSYRK" not in capfd.readouterr().err
+
+
 @pytest.mark.parametrize("threads", [2, 3])
 @pytest.mark.parametrize("weighted", [False, True])
 def test_threaded_accumulation_matches_one_thread(threads, weighted):

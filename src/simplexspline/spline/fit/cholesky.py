@@ -85,6 +85,14 @@ class SparseCholesky:
         front[frow, fcol] = data[src]  # lower triangle of P's part
         for c, li in kids:
             kernels.extend_add(front, li, pending.pop(c))
+        if nown == 0:
+            # an empty separator (the region fell apart into uncoupled halves): the
+            # children's updates pass through (BLAS's dsyrk rejects a rank-0 update, and
+            # OpenBLAS prints "On entry to DSYRK parameter number 7 had an illegal value")
+            if len(U):
+                pending[t] = front
+            self.factors[t] = (s, e, np.zeros((0, 0)), np.zeros((0, len(U))), U)
+            return
         try:
             L11 = sla.cholesky(front[:nown, :nown], lower=True, check_finite=False,
                                overwrite_a=True)
