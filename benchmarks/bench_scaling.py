@@ -134,7 +134,7 @@ def table(results: dict) -> str:
             xs = [r[key] for r in rows]
             fits = [r["fit"] for r in rows]
             last = rows[-1]
-            parts = " / ".join(f"{last[p]:.3g}" for p in PARTS)
+            parts = " / ".join(f"{last[p]:.3g}" if last[p] > 0 else "~0" for p in PARTS)
             lines.append(f"| {name} | {kind} | {', '.join(f'{v:,}' for v in xs)} | "
                          f"{', '.join(f'{t:.3g}' for t in fits)} | {slope(xs, fits):.2f} | "
                          f"{parts} |")
@@ -161,7 +161,9 @@ def plot(results: dict, path: Path) -> None:
             key = rows[0]["key"]
             xs = [r[key] for r in rows]
             for part, (colour, ls) in styles.items():
-                ys = [max(r[part], 1e-6) for r in rows]
+                # accumulate is a difference of medians: at or below zero it is within
+                # the timers' noise and is left out of the log plot (not drawn at 1e-6)
+                ys = [r[part] if r[part] > 0 else np.nan for r in rows]
                 label = (f"fit (slope {slope(xs, ys):.2f})" if part == "fit" else part)
                 ax.loglog(xs, ys, color=colour, linestyle=ls, marker="o", ms=3, label=label)
             ax.set_title(f"{kind}: sweep over {name}", fontsize=9)
