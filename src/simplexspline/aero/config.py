@@ -14,7 +14,8 @@ A config file (all tables and keys optional)::
 
     [selection]
     candidates = ["alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr",
-                  "alphadot_hat", "betadot_hat", "flap", "gear", "speedbrake", "dte", "mass"]
+                  "alphadot_hat", "betadot_hat", "flap", "gear", "speedbrake", "dte", "mass",
+                  "tc"]
     max_rounds = 6
     folds = 3
     min_improvement = 0.01
@@ -27,7 +28,7 @@ A config file (all tables and keys optional)::
     max_coefficients = 12000
     max_samples = 60000
     min_points = 10
-    moves = ["degree", "resolution", "variables"]
+    moves = ["degree", "resolution", "variables", "kinks"]
     prior = "auto"             # coarse-model prior: 'auto' (varying structures) | 'coarse'
     prior_weight = 0.01
     smoothing = "gcv"          # optional smoothness penalty: 'gcv' | 'auto' | a weight

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline.aero.data.angle_rates import ANGLE_RATE_NAMES, angle_rates
+from simplexspline.aero.data.thrust_coefficient import THRUST_COEFFICIENT, thrust_coefficient
 from simplexspline.aero.modelling.auto import restrict_to_data
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.search import (
@@ -512,13 +513,16 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
     # Fail before the (long) reconstruction when a structure the user gave names an
     # unknown column; a preset's structures are restricted to the data instead.
     given = dict(settings.structures or {})
-    _check_columns(df, given, (), extra=(*_RECONSTRUCTED, *ANGLE_RATE_NAMES))
+    _check_columns(df, given, (), extra=(*_RECONSTRUCTED, *ANGLE_RATE_NAMES,
+                                         THRUST_COEFFICIENT))
     data, rec_note = _coefficient_data(df, meta, settings, progress, log)
     data = data.copy(deep=False)
     data.attrs = {}
-    for name, values in angle_rates(data, meta).items():
+    derived = {**angle_rates(data, meta), **thrust_coefficient(data, meta)}
+    for name, values in derived.items():
         if name not in data.columns:        # derived candidates: alpha', beta' made
-            data[name] = values             # non-dimensional like the body rates
+            data[name] = values             # non-dimensional like the body rates, and
+                                            # the thrust coefficient T / (qbar S)
     # coefficients the data cannot give (no accelerometers: no force coefficients) are
     # left out and said so, unless the user asked for them by name
     absent = [c for c in settings.coefficients if c not in data.columns

@@ -4,7 +4,9 @@ Breakpoints: ``START:STOP:STEP`` or ``V1/V2/...``, optionally ending in ``deg`` 
 
 A multiplier (one term of a varying-coefficient structure) is an expression, the product
 of data columns or their absolute values (``beta*beta``, ``|de|``; ``1`` for the constant
-term), optionally followed by
+term), or the absolute value of a column's distance from a breakpoint (``|mach-0.62|``,
+``|alpha+0.05|``, in the column's units: a kink there, the hinge ``max(0, v - k)`` of
+adaptive regression splines up to a part linear in ``v``), optionally followed by
 
 - ``[v1/v2]``: the scheduling variables the term depends on (constant along the others);
 - ``{v@KNOTS; w@KNOTS}``: the term's own breakpoints, a subset of the model's breakpoints
@@ -14,6 +16,8 @@ term), optionally followed by
 """
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 
@@ -109,8 +113,7 @@ def split_multiplier(name: str) -> tuple:
 
 def format_multiplier(expr: str, dims=None, knots=None) -> str:
     """The canonical text of a multiplier from its parts (see :func:`parse_multiplier`)."""
-    text = "*".join(f"|{col}|" if absolute else col
-                    for col, absolute in (_factor(f) for f in expr.split("*")))
+    text = "*".join(_format_factor(*_factor(f)) for f in expr.split("*"))
     if dims is not None:
         text += f"[{'/'.join(dims)}]"
     if knots:
@@ -123,31 +126,57 @@ def normal_multiplier(name) -> str:
     return format_multiplier(*parse_multiplier(str(name)))
 
 
+#: ``column``, ``column-K`` or ``column+K`` inside ``|...|`` (K a decimal number).
+_SHIFTED = re.compile(r"^\s*([^\s+\-|*]+?)\s*(?:([+-])\s*((?:\d+\.?\d*|\.\d+)"
+                      r"(?:[eE][+-]?\d+)?))?\s*$")
+
+
 def _factor(text: str) -> tuple:
-    """One factor of a multiplier's expression: (column, absolute value?)."""
+    """One factor of a multiplier's expression: (column, absolute value?, breakpoint);
+    ``'|mach-0.6|'`` -> ('mach', True, 0.6), ``'de'`` -> ('de', False, 0.0)."""
     f = text.strip()
     absolute = len(f) > 2 and f[0] == f[-1] == "|"
-    return (f[1:-1].strip() if absolute else f), absolute
+    if not absolute:
+        return f, False, 0.0
+    inner = f[1:-1]
+    match = _SHIFTED.match(inner)
+    if match is None:
+        return inner.strip(), True, 0.0             # rejected by multiplier_parts
+    col, sign, num = match.groups()
+    shift = 0.0 if num is None else float(num) * (1.0 if sign == "-" else -1.0)
+    return col, True, shift + 0.0                   # -0.0 -> 0.0
+
+
+def _format_factor(col: str, absolute: bool, shift: float) -> str:
+    if not absolute:
+        return col
+    if shift == 0:
+        return f"|{col}|"
+    return f"|{col}{'-' if shift > 0 else '+'}{abs(shift):.6g}|"
 
 
 def multiplier_parts(name: str) -> tuple:
-    """The factors of a multiplier as (data column, absolute value?) pairs: ``'da'`` ->
-    (('da', False),), ``'|beta|*qhat'`` -> (('beta', True), ('qhat', False))."""
+    """The factors of a multiplier as (data column, absolute value?, breakpoint)
+    triples: ``'da'`` -> (('da', False, 0.0),), ``'|beta|*qhat'`` -> (('beta', True, 0.0),
+    ('qhat', False, 0.0)), ``'dr*|mach-0.6|'`` -> (('dr', False, 0.0), ('mach', True,
+    0.6)): the factor is ``|column - breakpoint|`` when absolute, else the column."""
     expr = split_multiplier(name)[0]
     if expr == "1":
         return ()
     out = []
     for f in expr.split("*"):
-        col, absolute = _factor(f)
-        if not col or "|" in col:
-            raise InputError(f"multiplier {name!r}: factors are data columns or their "
-                             "absolute values, '|beta|'")
-        out.append((col, absolute))
+        col, absolute, shift = _factor(f)
+        if not col or any(c in col for c in "|+- "):
+            raise InputError(f"multiplier {name!r}: factors are data columns, their "
+                             "absolute values '|beta|' or distances from a breakpoint "
+                             "'|mach-0.6|'")
+        out.append((col, absolute, shift))
     return tuple(out)
 
 
 def multiplier_factors(name: str) -> tuple:
     """The data columns whose product a multiplier is: ``'1'`` -> (), ``'da'`` ->
     ('da',), ``'beta*beta'`` -> ('beta', 'beta'), ``'phat[alpha]'`` -> ('phat',),
-    ``'|de|'`` -> ('de',) (the absolute value of the elevator deflection)."""
-    return tuple(col for col, _ in multiplier_parts(name))
+    ``'|de|'`` -> ('de',) (the absolute value of the elevator deflection),
+    ``'beta*|mach-0.6|'`` -> ('beta', 'mach')."""
+    return tuple(col for col, _, _ in multiplier_parts(name))

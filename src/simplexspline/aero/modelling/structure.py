@@ -89,7 +89,7 @@ class Structure:
             raise InputError(f"structure of {self.coefficient}: repeated or empty multiplier "
                              f"in {list(mult)}")
         for m in mult:
-            multiplier_parts(m)                      # factors: columns or '|column|'
+            multiplier_parts(m)      # factors: columns, '|column|' or '|column-k|'
             dims = split_multiplier(m)[1]
             if dims is not None and any(v not in variables for v in dims):
                 raise InputError(f"structure of {self.coefficient}: the term {m!r} may only "
@@ -299,22 +299,22 @@ def multiplier_values(structure: Structure, x: np.ndarray) -> np.ndarray:
     idx = {v: i for i, v in enumerate(structure.inputs)}
     out = np.ones((len(x), structure.nterms))
     for k, name in enumerate(structure.multipliers):
-        for f, absolute in multiplier_parts(name):
-            out[:, k] *= np.abs(x[:, idx[f]]) if absolute else x[:, idx[f]]
+        for f, absolute, shift in multiplier_parts(name):
+            out[:, k] *= np.abs(x[:, idx[f]] - shift) if absolute else x[:, idx[f]]
     return out
 
 
 def multiplier_jacobian(structure: Structure, x: np.ndarray) -> np.ndarray:
     """d(multiplier k)/d(input i) at the points, shape (N, K, len(structure.inputs))
-    (``|v|`` factors: ``sign(v)``, 0 at 0)."""
+    (``|v - k|`` factors: ``sign(v - k)``, 0 at the breakpoint)."""
     idx = {v: i for i, v in enumerate(structure.inputs)}
     out = np.zeros((len(x), structure.nterms, len(structure.inputs)))
     for k, name in enumerate(structure.multipliers):
         parts = multiplier_parts(name)
-        for j, (f, absolute) in enumerate(parts):
-            rest = np.sign(x[:, idx[f]]) if absolute else np.ones(len(x))
-            for g, gabs in parts[:j] + parts[j + 1:]:
-                rest = rest * (np.abs(x[:, idx[g]]) if gabs else x[:, idx[g]])
+        for j, (f, absolute, shift) in enumerate(parts):
+            rest = np.sign(x[:, idx[f]] - shift) if absolute else np.ones(len(x))
+            for g, gabs, gshift in parts[:j] + parts[j + 1:]:
+                rest = rest * (np.abs(x[:, idx[g]] - gshift) if gabs else x[:, idx[g]])
             out[:, k, idx[f]] += rest
     return out
 

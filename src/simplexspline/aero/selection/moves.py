@@ -1,5 +1,6 @@
 """The moves of the greedy structure search: from one structure to its neighbours (degree,
-grid cells or breakpoints, one polynomial per cell or not, variables or multipliers)."""
+grid cells or breakpoints, one polynomial per cell or not, variables or multipliers, kinks
+at breakpoints placed where the data are)."""
 
 from __future__ import annotations
 
@@ -8,10 +9,23 @@ from collections.abc import Sequence
 import numpy as np
 
 from simplexspline.aero.modelling.auto import SCHEDULING_CANDIDATES, candidate_terms
-from simplexspline.aero.modelling.notation import parse_multiplier
+from simplexspline.aero.modelling.notation import (
+    format_multiplier,
+    multiplier_parts,
+    parse_multiplier,
+)
 from simplexspline.aero.modelling.structure import Structure
+from simplexspline.aero.variables import LATERAL_COEFFICIENTS, LATERAL_VARIABLES
 
-__all__ = ["knot_moves", "neighbours", "schedule_moves"]
+__all__ = ["KINK_QUANTILES", "MIN_KINK_SPACING", "kink_moves", "kink_positions", "knot_moves", "neighbours",
+           "schedule_moves"]
+
+#: Where a kink may be placed along a variable: these quantiles of its identification
+#: data (the breakpoints follow the data's density, never a table's grid).
+KINK_QUANTILES: tuple[float, ...] = tuple(np.round(np.arange(0.1, 0.91, 0.05), 2))
+#: A term's kinks along one variable lie at least this many candidate positions apart
+#: (of :data:`KINK_QUANTILES`: 10 % of the data between two kinks).
+MIN_KINK_SPACING = 2
 
 
 def neighbours(s: Structure, settings, available: Sequence[str]):
@@ -146,3 +160,83 @@ def _names_variable(multiplier: str, v: str) -> bool:
     """Whether a term names ``v`` in its own dimensions or breakpoints."""
     _expr, dims, knots = parse_multiplier(multiplier)
     return v in knots or (dims is not None and v in dims)
+
+
+def kink_positions(columns, variables: Sequence[str],
+                   quantiles: Sequence[float] = KINK_QUANTILES) -> dict:
+    """Candidate breakpoints per variable: the ``quantiles`` of its data (rounded to 3
+    significant digits, duplicates removed); the lateral variables get 0 only (a kink
+    elsewhere would break the aircraft's mirror symmetry)."""
+    out = {}
+    for v in variables:
+        if v in LATERAL_VARIABLES:
+            out[v] = (0.0,)
+            continue
+        x = np.asarray(columns[v], dtype=float)
+        q = np.quantile(x, quantiles)
+        q = np.array([float(f"{k:.3g}") for k in q])
+        out[v] = tuple(float(k) for k in np.unique(q))
+    return out
+
+
+def kink_moves(s: Structure, positions) -> list:
+    """Moves that add a kink to one term of a varying-coefficient structure: for a term
+    ``m`` (``1`` included) and a variable ``v`` with candidate breakpoints ``positions[v]``
+    (:func:`kink_positions`), the term ``m*|v-k|``, whose coefficient depends on the
+    scheduling variables other than ``v``: together with ``m``'s own coefficient, which
+    is smooth across ``k``, the model's dependence on ``v`` may change slope at ``k`` (the
+    hinge ``max(0, v - k)`` of adaptive regression splines, Friedman 1991), for every value
+    of the other variables, with few coefficients and without a thin slab of data beyond
+    ``k`` (a breakpoint of the grid would give the slab its own polynomials).
+
+    ``v`` is a scheduling variable or a factor of a term (``beta*|beta|``: a sideslip
+    derivative that changes with the sideslip's size). A term's kinks along one variable
+    lie :data:`MIN_KINK_SPACING` candidate positions apart or more (a table has several
+    breakpoints), kinks (terms with an absolute value, ``|de|`` included) get no kinks, and terms restricted to some variables or breakpoints
+    get none. A kink in a lateral variable (at 0, see :func:`kink_positions`) keeps the
+    term's parity: only terms of the coefficient's own parity get one.
+    """
+    if not s.varying:
+        return []
+    lateral = s.coefficient in LATERAL_COEFFICIENTS
+    have = set(s.multipliers)
+    kinked: dict = {}                    # (the term's other factors, v) -> its kinks
+    for t in s.multipliers:
+        parts = multiplier_parts(t)
+        for i, (c, a, k) in enumerate(parts):
+            if a:                        # '|de|' is a kink at 0
+                kinked.setdefault((_product(parts[:i] + parts[i + 1:]), c), []).append(k)
+    out = []
+    for m in s.multipliers:
+        _expr, dims, knots = parse_multiplier(m)
+        parts = multiplier_parts(m)
+        if dims is not None or knots or any(a for _c, a, _k in parts):
+            continue
+        base = _product(parts)
+        odd = sum(c in LATERAL_VARIABLES and not a for c, a, _k in parts) % 2 == 1
+        for v, ks in positions.items():
+            if any(c == v and a for c, a, _k in parts):
+                continue                 # (beta*|beta|, de*|de-0.1|: slopes that change)
+            if v in LATERAL_VARIABLES and odd != lateral:
+                continue                 # |beta| on an even term of Cl: an even term
+            own = tuple(w for w in s.variables if w != v) if v in s.variables else None
+            ks = np.asarray(ks, dtype=float)
+            taken = np.searchsorted(ks, kinked.get((base, v), []))
+            for i, k in enumerate(ks):
+                if len(taken) and np.min(np.abs(taken - i)) < MIN_KINK_SPACING:
+                    continue             # next to a kink the term has: no second one
+                factor = f"|{v}-{k:g}|" if k > 0 else f"|{v}+{-k:g}|" if k < 0 else f"|{v}|"
+                text = factor if base == "1" else f"{base}*{factor}"
+                term = format_multiplier(text, own)
+                if term not in have:
+                    out.append((f"add kink {term}",
+                                s.with_(multipliers=(*s.multipliers, term))))
+    return out
+
+
+def _product(parts) -> str:
+    """The expression text of factors ``(column, absolute, breakpoint)``; ``'1'`` when none."""
+    if not parts:
+        return "1"
+    return format_multiplier("*".join(
+        (f"|{c}-{k!r}|" if k else f"|{c}|") if a else c for c, a, k in parts))

@@ -37,13 +37,14 @@ from simplexspline.aero.modelling.structure_space import (
     input_matrix,
 )
 from simplexspline.aero.modelling.model import AeroModel
-from simplexspline.aero.selection.moves import neighbours
+from simplexspline.aero.selection.moves import kink_moves, kink_positions, neighbours
 from simplexspline.aero.modelling.prior import (
     PRIOR_DEGREES,
     PRIOR_WEIGHT,
     coarse_structure,
     virtual_samples,
 )
+from simplexspline.aero.modelling.notation import multiplier_factors
 from simplexspline.aero.modelling.structure import Structure, multiplier_values
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.varying import VaryingCoefficientSpace
@@ -52,8 +53,12 @@ from simplexspline.aero.selection.fold_equations import FoldEquations, fold_equa
 from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
 from simplexspline.spline import kernels
 
-__all__ = ["PLAIN_FIT", "SearchCache", "SelectionSettings", "Trial", "choose_prior_degree",
+__all__ = ["MOVE_KINDS", "PLAIN_FIT", "SearchCache", "SelectionSettings", "Trial", "choose_prior_degree",
            "cv_score", "fit_structure", "select_structure"]
+
+
+#: The kinds of moves of the structure search (:attr:`SelectionSettings.moves`).
+MOVE_KINDS: tuple[str, ...] = ("degree", "resolution", "variables", "kinks")
 
 
 @dataclass(frozen=True)
@@ -87,7 +92,9 @@ class SelectionSettings:
         breakpoints, every other breakpoint dropped or midpoints inserted; ``cellwise``
         on or off), 'variables' (add, remove or replace a variable; for
         varying-coefficient structures add or remove a multiplier, schedule on one more
-        variable or one fewer).
+        variable or one fewer), 'kinks' (varying-coefficient structures: a term ``m``
+        gets a kink ``m*|v-k|`` in one of its variables at a breakpoint placed at a
+        quantile of the data, :func:`~simplexspline.aero.selection.moves.kink_moves`).
     ridge : float
         Relative ridge weight on the B-coefficients (times the mean diagonal of X'X): a
         tiny value that only decides directions the data and continuity leave
@@ -130,13 +137,19 @@ class SelectionSettings:
     samples_per_coefficient: float = 20.0
     min_points: int = 10
     max_samples: int = 60_000
-    moves: tuple = ("degree", "resolution", "variables")
+    moves: tuple = ("degree", "resolution", "variables", "kinks")
     ridge: float = 1e-8
     smoothing: object = None
     prior: object = "auto"
     prior_weight: float = PRIOR_WEIGHT
     screen: int | None = 3
     combine: int = 3
+
+    def __post_init__(self):
+        unknown = sorted(set(self.moves) - set(MOVE_KINDS))
+        if unknown:
+            raise InputError(f"unknown move kind(s) {unknown} of the structure selection; "
+                             f"known: {list(MOVE_KINDS)}")
 
     def to_dict(self) -> dict:
         return {k: (list(v) if isinstance(v, tuple) else v)
@@ -567,22 +580,24 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     score.history = history
     score.screen = None if not settings.screen else (
         lambda best, moves: screen_moves(best, moves, cols, ys, settings))
+    kinks = kink_positions(cols, available) if "kinks" in settings.moves else None
     with kernels.one_blas_thread():
-        return _search(start, settings, available, budget, score, ranges)
+        return _search(start, settings, available, budget, score, ranges, kinks)
 
 
 #: Kinds of moves that :func:`screen_moves` ranks before any is cross-validated.
-_SCREENED = ("add multiplier ", "schedule on ", "remove multiplier ")
+_SCREENED = ("add multiplier ", "schedule on ", "remove multiplier ", "add kink ")
 
 
 def screen_moves(best: Structure, moves: list, columns: Mapping, y: np.ndarray,
                  settings: SelectionSettings) -> list:
-    """The moves worth a cross-validation: all but the 'add multiplier', 'schedule on' and
-    'remove multiplier' moves, of which only the ``settings.screen`` most promising each.
+    """The moves worth a cross-validation: all but the 'add multiplier', 'schedule on',
+    'remove multiplier' and 'add kink' moves, of which only the ``settings.screen`` most
+    promising each.
 
     An addition is promising when what it adds explains much of the current model's
     residual: the R^2 of a least-squares fit of the residual (in-sample, of ``best``
-    fitted to the search's samples) by the new term times 1, z and z^2 (z: the first
+    fitted to the search's samples) by the new term (or kink) times 1, z and z^2 (z: the first
     scheduling variable, scaled), or for a new scheduling variable v by v^2, |v|, v^3 and
     v z. A removal is promising when the term contributes little (RMS of its part of the
     current model). A cheap linear regression per move instead of a k-fold spline fit.
@@ -617,7 +632,7 @@ def screen_moves(best: Structure, moves: list, columns: Mapping, y: np.ndarray,
             if kind == "remove multiplier ":
                 gains.append(-share.get(name, 0.0))
                 continue
-            if kind == "add multiplier ":
+            if kind in ("add multiplier ", "add kink "):
                 term = Structure(best.coefficient, best.variables, multipliers=(name,))
                 t = multiplier_values(term, input_matrix(columns, term.inputs))[:, 0]
                 feats = [t, t * z0, t * z0 * z0]
@@ -640,7 +655,18 @@ def _explained(features: np.ndarray, resid: np.ndarray) -> float:
     return float(1.0 - np.sum((r - f @ coef) ** 2) / ss) if ss > 0 else 0.0
 
 
-def _search(start, settings, available, budget, score, ranges=None):
+def _moves(s: Structure, settings, available, kinks) -> list:
+    """Every move from ``s``: its neighbours and, with ``kinks`` (candidate breakpoints per
+    variable), the kinks of its terms in its scheduling variables and factors."""
+    out = neighbours(s, settings, available)
+    if kinks:
+        near = set(s.variables) | {f for m in s.multipliers for f in
+                                   multiplier_factors(m)}
+        out += kink_moves(s, {v: kinks[v] for v in kinks if v in near})
+    return out
+
+
+def _search(start, settings, available, budget, score, ranges=None, kinks=None):
     best = start
     best_score = score(start, 0, "start")
     history = score.history
@@ -653,7 +679,7 @@ def _search(start, settings, available, budget, score, ranges=None):
         # multipliers, coarser, lower degree) are always allowed, so a start above the
         # budget (a preset on a short campaign) can still be simplified
         limit = max(budget, _size(best, ranges))
-        moves = [(m, s) for m, s in neighbours(best, settings, available)
+        moves = [(m, s) for m, s in _moves(best, settings, available, kinks)
                  if _size(s, ranges) <= limit]
         if score.screen is not None:
             moves = score.screen(best, moves)
@@ -671,7 +697,7 @@ def _search(start, settings, available, budget, score, ranges=None):
                   if c < best_score * (1.0 - settings.min_improvement)]
         best, best_score = _accept(history, cand, sc)
         for move in others[:settings.combine]:
-            again = dict(neighbours(best, settings, available)).get(move)
+            again = dict(_moves(best, settings, available, kinks)).get(move)
             if again is None or _size(again, ranges) > max(budget, _size(best, ranges)):
                 continue
             c = score(again, rnd, f"{move} (combined)")
