@@ -16,7 +16,13 @@ from simplexspline.aero.modelling.auto import (
 from simplexspline.aero.modelling.notation import multiplier_factors, multiplier_parts
 from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import Structure
-from simplexspline.aero.selection.moves import neighbours, schedule_moves
+from simplexspline.aero.selection.moves import (
+    KINK_QUANTILES,
+    kink_moves,
+    kink_positions,
+    neighbours,
+    schedule_moves,
+)
 from simplexspline.aero.selection.search import SelectionSettings, fit_structure, \
     select_structure
 from simplexspline.aero.variables import (
@@ -136,3 +142,73 @@ def test_lateral_coefficients_never_get_even_terms():
         if move.startswith("add multiplier"):
             term = move.split()[-1]
             assert "|" not in term and "*" not in term and term in LATERAL_VARIABLES
+
+
+def test_kink_positions_follow_the_data_and_keep_the_symmetry():
+    rng = np.random.default_rng(0)
+    cols = {"mach": rng.uniform(0.3, 0.9, 2000), "beta": rng.normal(0, 0.05, 2000)}
+    pos = kink_positions(cols, ["mach", "beta"])
+    assert pos["beta"] == (0.0,)                      # lateral: at 0 only
+    want = np.quantile(cols["mach"], KINK_QUANTILES)
+    np.testing.assert_allclose(pos["mach"], want, rtol=5e-3)   # 3 significant digits
+
+
+def test_kink_moves_keep_parity_spacing_and_restricted_terms():
+    cl = Structure("Cl", ("alpha", "mach"), 2, 1, (3, 1), ("1", "beta", "da", "qhat[alpha]"))
+    ks = (0.5, 0.55, 0.6, 0.65, 0.7)
+    moves = dict(kink_moves(cl, {"mach": ks, "beta": (0.0,)}))
+    # the odd terms get |beta| (odd times even), the even constant does not
+    assert "add kink da*|beta|" in moves and "add kink beta*|beta|" in moves
+    assert "add kink |beta|" not in moves
+    # a kink in a scheduling variable: the coefficient on the other ones
+    assert "add kink beta*|mach-0.6|[alpha]" in moves
+    assert not any(m.startswith("add kink qhat") for m in moves)   # restricted: none
+    kinked = moves["add kink beta*|mach-0.6|[alpha]"]
+    again = [m for m, _s in kink_moves(kinked, {"mach": ks})]
+    assert "add kink beta*|mach-0.7|[alpha]" in again          # a second breakpoint
+    assert not any(m.startswith("add kink beta*|mach-0.55|") or
+                   m.startswith("add kink beta*|mach-0.65|") for m in again)  # too close
+    assert not any("|mach-0.6|*" in m for m in again)          # kinks get no kinks
+    assert kink_moves(Structure("CZ", ("alpha",), 3, 1), {"alpha": ks}) == []   # plain
+
+
+def test_search_finds_a_mach_kink_it_was_not_told_about():
+    """A sideslip derivative that starts to change at Mach 0.62 (the shape of the F-16's
+    Clb_M table): the search places a kink there from the data's quantiles; without kink
+    moves, finer Mach cells get 3x further from the truth."""
+    rng = np.random.default_rng(5)
+    t = np.arange(400) * 0.02
+    cols = {k: [] for k in ("alpha", "mach", "beta", "da", "y", "truth", "man")}
+    for m, mach0 in enumerate(np.linspace(0.35, 0.85, 24)):
+        def wave(amp, centre=0.0):
+            f, ph = rng.uniform(0.1, 1.0, 3), rng.uniform(0, 2 * np.pi, 3)
+            return centre + amp * np.sin(2 * np.pi * f[:, None] * t + ph[:, None]).sum(0) / 3
+
+        alpha, beta, da = wave(0.04, 0.05), wave(0.08), wave(0.1)
+        mach = mach0 + wave(0.01)
+        truth = -0.1 * beta + 0.9 * beta * np.maximum(mach - 0.62, 0.0) + 0.2 * da
+        for k, v in (("alpha", alpha), ("mach", mach), ("beta", beta), ("da", da),
+                     ("truth", truth), ("y", truth + 2e-4 * rng.standard_normal(len(t))),
+                     ("man", np.full(len(t), m))):
+            cols[k].append(v)
+    d = {k: np.concatenate(v) for k, v in cols.items()}
+    data = {k: d[k] for k in ("alpha", "mach", "beta", "da")}
+    start = Structure("Cl", ("alpha", "mach"), 2, 1, (1, 1), ("1", "beta", "da"))
+    errors = {}
+    for moves in (("degree", "resolution", "variables", "kinks"),
+                  ("degree", "resolution", "variables")):
+        settings = SelectionSettings(max_rounds=3, max_samples=20_000, moves=moves)
+        best, _history = select_structure(start, data, d["y"], d["man"], settings)
+        model = fit_structure(best, data, d["y"], settings)
+        errors[moves[-1]] = float(np.sqrt(np.mean((model.predict(data) - d["truth"]) ** 2)))
+        if moves[-1] == "kinks":
+            found = [k for m in best.multipliers for c, a, k in multiplier_parts(m)
+                     if c == "mach" and a]
+            assert found and min(abs(k - 0.62) for k in found) < 0.04, best.label()
+    # far below the noise (2e-4), and a fraction of what finer Mach cells reach
+    assert errors["kinks"] < 5e-5 and errors["kinks"] < 0.5 * errors["variables"], errors
+
+
+def test_unknown_move_kinds_are_named():
+    with pytest.raises(InputError, match="unknown move kind.*'kink'"):
+        SelectionSettings(moves=("degree", "kink"))

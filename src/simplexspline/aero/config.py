@@ -23,7 +23,7 @@ A config file (all tables and keys optional)::
     max_resolution = 6
     max_variables = 5
     max_schedule = 3           # scheduling variables of a varying-coefficient structure
-    screen = 3                 # 'add multiplier' and 'schedule on' moves tried per round
+    screen = 3                 # 'add multiplier', 'schedule on', 'add kink' moves per round
     combine = 3                # other improving moves tried on top of a round's best
     max_coefficients = 12000
     max_samples = 60000
