@@ -16,13 +16,13 @@ import numpy as np
 from simplexspline.errors import SimulationError
 from simplexspline.sim import units as u
 from simplexspline.sim.aircraft import AircraftProfile, Envelope
-from simplexspline.sim.fdm import IDX, Recorder, quiet_scratch, set_wind, trim_fdm
+from simplexspline.sim.fdm import IDX, RECORD, Recorder, quiet_scratch, set_wind, trim_fdm
 from simplexspline.sim.maneuvers import LEAD_S, excitation
 from simplexspline.sim.pilot import (Actuator, AircraftState, Airframe, Pilot, PilotStyle,
                                      Turn)
 from simplexspline.sim.sensors import SensorModel
 
-__all__ = ["simulate_maneuver", "trim_condition", "DT"]
+__all__ = ["simulate_maneuver", "trim_condition", "FlightLoop", "DT"]
 
 DT = 0.01  #: sample time [s] (100 Hz)
 
@@ -176,100 +176,181 @@ def simulate_maneuver(spec: dict) -> dict:
 
 def _fly(fdm, profile: AircraftProfile, env: Envelope, design: dict, spec: dict, n: int):
     """The 100 Hz loop. Returns raw samples, surface positions and the cut reason."""
-    rec = Recorder(fdm, profile)
-    writers = rec.surface_writers
-    trim_surf = [f() for f in rec.surface_reads]
-    for w, d in zip(writers, trim_surf):
-        for setter, gain in w:
-            setter(gain * d)
-    throttle_nodes = rec.throttle_nodes
-    thr0 = throttle_nodes[0].get_double_value()
-    fdm.run()
-    s = rec.sample()
-    geometry = (fdm["metrics/Sw-sqft"] * u.FT**2, fdm["metrics/bw-ft"] * u.FT,
-                fdm["metrics/cbarw-ft"] * u.FT)
-    S, b, c = geometry
-    qbar = s[6] * u.PSF
-    inertia = (s[33] * u.SLUG_FT2, s[32] * u.SLUG_FT2, s[34] * u.SLUG_FT2)  # pitch, roll, yaw
-    refs = (c, b, b)
-    gains = tuple(inertia[i] / (qbar * S * refs[i] * profile.control_power[i])
-                  for i in range(3))
-    limits = tuple(sf.limit for sf in profile.surfaces)
-    exc = excitation(design, n, DT, gains, limits,
-                     pitch_scale=min(1.0, profile.pulse_qbar_ref / qbar)).tolist()
-    trim = {"theta": s[11], "phi": s[10], "psi": s[12], "h": s[4] * u.FT, "tas": s[2] * u.FT,
-            "de": trim_surf[0], "da": trim_surf[1], "dr": trim_surf[2], "throttle": thr0}
-    protection = {
-        "nz": (1 - 0.7 * (1 - env.nz_min), 1 + 0.7 * (env.nz_max - 1)),
-        "alpha": (env.alpha_min + 0.3 * (s[0] - env.alpha_min),
-                  env.alpha_max - 0.3 * (env.alpha_max - s[0])),
-        "phi": 0.7 * env.phi_max,
-    }
-    pilot = Pilot("pilot" if design["family"] == "sum-of-sines" else "autopilot", trim,
-                  Airframe.of(profile, geometry), style=PilotStyle(**spec["pilot"]),
-                  turn=Turn(design.get("bank", 0.0), LEAD_S), protection=protection, dt=DT)
-    acts = [Actuator(d, sf.limit, sf.rate, sf.tau, DT)
-            for d, sf in zip(trim_surf, profile.surfaces)]
-    schedules = rec.schedule_writers
-    flap_read = rec.flap_read
-    sample = rec.sample
-    run = fdm.run
-    command = pilot.command
-    FT, PSF, SL2 = u.FT, u.PSF, u.SLUG_FT2
-    g_ft = u.G0 / FT
-    # flat float buffers: one extend per sample is cheaper than a list of lists
-    rows, surf = array("d"), array("d")
-    rows_extend, surf_extend = rows.extend, surf.extend
-    width = len(s)
-    deflections = list(trim_surf)
-    reason = None
-    # envelope bounds in JSBSim units for the fast in-loop check
-    a_lo, a_hi, b_max = env.alpha_min, env.alpha_max, env.beta_max
-    phi_max, th_max, m_max = env.phi_max, env.theta_max, env.mach_max
-    nz_lo, nz_hi, h_lo = env.nz_min, env.nz_max, env.h_min / FT
-    act_e, act_a, act_r = (a.step for a in acts)
-    w_e, w_a, w_r = writers
-    for k in range(n):
-        if k:
-            run()
-            s = sample()
-        nz = -s[15] / (s[31] * g_ft)
-        if not (a_lo <= s[0] <= a_hi and -b_max <= s[1] <= b_max
-                and -phi_max <= s[10] <= phi_max and -th_max <= s[11] <= th_max
-                and nz_lo <= nz <= nz_hi and s[3] <= m_max and s[4] >= h_lo):
-            reason = _violation(env, s)
-            break
-        rows_extend(s)
-        surf_extend((*deflections, flap_read() if flap_read else 0.0))
-        if k == n - 1:
-            break
-        de, da, dr, thr = command(AircraftState(
-            theta=s[11], phi=s[10], psi=s[12], p=s[7], q=s[8], r=s[9], h=s[4] * FT,
-            tas=s[2] * FT, vd=s[41] * FT, qbar=s[6] * PSF, ixx=s[32] * SL2, iyy=s[33] * SL2,
-            izz=s[34] * SL2, alpha=s[0], nz=nz))
-        e = exc[k + 1]
-        deflections = [act_e(de + e[0]), act_a(da + e[1]), act_r(dr + e[2])]
-        d = deflections[0]
-        for setter, gain in w_e:
-            setter(gain * d)
-        d = deflections[1]
-        for setter, gain in w_a:
-            setter(gain * d)
-        d = deflections[2]
-        for setter, gain in w_r:
-            setter(gain * d)
-        for setter, default, rules in schedules:
-            value = default
-            for var, threshold, v in rules:
-                if (s[0] if var == "alpha" else s[3]) > threshold:
-                    value = v
+    loop = FlightLoop(fdm, profile, env)
+    s = loop.start()
+    exc = excitation(design, n, DT, loop.gains(s), loop.limits,
+                     pitch_scale=min(1.0, profile.pulse_qbar_ref / (s[6] * u.PSF))).tolist()
+    pilot = Pilot("pilot" if design["family"] == "sum-of-sines" else "autopilot", loop.trim(s),
+                  loop.airframe, style=PilotStyle(**spec["pilot"]),
+                  turn=Turn(design.get("bank", 0.0), LEAD_S), protection=loop.protection(s),
+                  dt=DT)
+    _, reason = loop.steps(pilot, exc, n, s, first=True, stop=True)
+    return loop.raw(), loop.surfaces(), reason
+
+
+class FlightLoop:
+    """The 100 Hz loop of one trimmed FDM: pilot and excitation -> actuators -> JSBSim.
+
+    One campaign maneuver is one call of :meth:`steps`; a whole flight (:mod:`simplexspline
+    .sim.whole_flight`) calls it once per phase (steady flight, a maneuver, a climb) on the
+    same FDM, with the actuators, throttle and records carried over.
+
+    Parameters
+    ----------
+    fdm : jsbsim.FGFDMExec
+        Trimmed, FCS off (:func:`~simplexspline.sim.fdm.trim_fdm`).
+    profile : AircraftProfile
+    env : Envelope
+        Limits checked at every sample.
+    """
+
+    def __init__(self, fdm, profile: AircraftProfile, env: Envelope):
+        self.fdm, self.profile, self.env = fdm, profile, env
+        self.rec = Recorder(fdm, profile)
+        self.trim_surf = [f() for f in self.rec.surface_reads]
+        for w, d in zip(self.rec.surface_writers, self.trim_surf):
+            for setter, gain in w:
+                setter(gain * d)
+        self.limits = tuple(sf.limit for sf in profile.surfaces)
+        self.actuators = [Actuator(d, sf.limit, sf.rate, sf.tau, DT)
+                          for d, sf in zip(self.trim_surf, profile.surfaces)]
+        self.deflections = list(self.trim_surf)
+        self.geometry = (fdm["metrics/Sw-sqft"] * u.FT**2, fdm["metrics/bw-ft"] * u.FT,
+                         fdm["metrics/cbarw-ft"] * u.FT)
+        self.airframe = Airframe.of(profile, self.geometry)
+        # flat float buffers: one extend per sample is cheaper than a list of lists
+        self.rows, self.surf = array("d"), array("d")
+        self.width = len(RECORD)
+
+    def start(self) -> list:
+        """The first ``run()`` after the trim; returns the first sample."""
+        self.fdm.run()
+        return self.rec.sample()
+
+    def throttle(self) -> float:
+        """The current throttle setting of the first engine."""
+        return self.rec.throttle_nodes[0].get_double_value()
+
+    def gains(self, s: list) -> tuple:
+        """Deflection per angular acceleration of (elevator, aileron, rudder) at sample
+        ``s`` (the control power and dynamic pressure there)."""
+        S, b, c = self.geometry
+        qbar = s[6] * u.PSF
+        inertia = (s[33] * u.SLUG_FT2, s[32] * u.SLUG_FT2, s[34] * u.SLUG_FT2)
+        refs = (c, b, b)
+        return tuple(inertia[i] / (qbar * S * refs[i] * self.profile.control_power[i])
+                     for i in range(3))
+
+    def trim(self, s: list) -> dict:
+        """The pilot's trim point: the state of sample ``s`` and the current surfaces and
+        throttle."""
+        de, da, dr = (a.x for a in self.actuators)
+        return {"theta": s[11], "phi": s[10], "psi": s[12], "h": s[4] * u.FT,
+                "tas": s[2] * u.FT, "de": de, "da": da, "dr": dr, "throttle": self.throttle()}
+
+    def protection(self, s: list) -> dict:
+        """Soft envelope protection of the flight control computer around sample ``s``."""
+        env = self.env
+        return {"nz": (1 - 0.7 * (1 - env.nz_min), 1 + 0.7 * (env.nz_max - 1)),
+                "alpha": (env.alpha_min + 0.3 * (s[0] - env.alpha_min),
+                          env.alpha_max - 0.3 * (env.alpha_max - s[0])),
+                "phi": 0.7 * env.phi_max}
+
+    def raw(self) -> np.ndarray:
+        """Every recorded sample, (n, len(RECORD)), JSBSim units."""
+        return np.frombuffer(self.rows, dtype=float).reshape(-1, self.width)
+
+    def surfaces(self) -> np.ndarray:
+        """Recorded (de, da, dr, flap) per sample, (n, 4)."""
+        return np.frombuffer(self.surf, dtype=float).reshape(-1, 4)
+
+    def steps(self, pilot: Pilot, exc: list, n: int, s: list, *, first: bool = False,
+              stop: bool = True) -> tuple:
+        """Fly ``n`` samples.
+
+        Parameters
+        ----------
+        pilot : Pilot
+        exc : list of (3,) sequences
+            Deflections added to the pilot's commands; ``exc[k]`` is applied in the step
+            that produces sample ``k`` of this call.
+        n : int
+        s : list
+            The current sample (the last one recorded, or the first one when ``first``).
+        first : bool
+            Record ``s`` itself as sample 0 (the start of a flight) instead of stepping to
+            it.
+        stop : bool
+            Stop at the first sample outside the envelope (not recorded); else record it
+            and go on.
+
+        Returns
+        -------
+        s : list
+            The last sample recorded.
+        reason : str or None
+            The first envelope violation.
+        """
+        fdm, rec, env = self.fdm, self.rec, self.env
+        writers = rec.surface_writers
+        throttle_nodes = rec.throttle_nodes
+        schedules = rec.schedule_writers
+        flap_read = rec.flap_read
+        sample = rec.sample
+        run = fdm.run
+        command = pilot.command
+        FT, PSF, SL2 = u.FT, u.PSF, u.SLUG_FT2
+        g_ft = u.G0 / FT
+        rows_extend, surf_extend = self.rows.extend, self.surf.extend
+        deflections = self.deflections
+        reason = None
+        # envelope bounds in JSBSim units for the fast in-loop check
+        a_lo, a_hi, b_max = env.alpha_min, env.alpha_max, env.beta_max
+        phi_max, th_max, m_max = env.phi_max, env.theta_max, env.mach_max
+        nz_lo, nz_hi, h_lo = env.nz_min, env.nz_max, env.h_min / FT
+        act_e, act_a, act_r = (a.step for a in self.actuators)
+        w_e, w_a, w_r = writers
+        for k in range(n):
+            if k or not first:
+                de, da, dr, thr = command(AircraftState(
+                    theta=s[11], phi=s[10], psi=s[12], p=s[7], q=s[8], r=s[9], h=s[4] * FT,
+                    tas=s[2] * FT, vd=s[41] * FT, qbar=s[6] * PSF, ixx=s[32] * SL2,
+                    iyy=s[33] * SL2, izz=s[34] * SL2, alpha=s[0], nz=-s[15] / (s[31] * g_ft)))
+                e = exc[k]
+                deflections = [act_e(de + e[0]), act_a(da + e[1]), act_r(dr + e[2])]
+                d = deflections[0]
+                for setter, gain in w_e:
+                    setter(gain * d)
+                d = deflections[1]
+                for setter, gain in w_a:
+                    setter(gain * d)
+                d = deflections[2]
+                for setter, gain in w_r:
+                    setter(gain * d)
+                for setter, default, rules in schedules:
+                    value = default
+                    for var, threshold, v in rules:
+                        if (s[0] if var == "alpha" else s[3]) > threshold:
+                            value = v
+                            break
+                    setter(value)
+                if thr is not None:
+                    for node in throttle_nodes:
+                        node.set_double_value(thr)
+                run()
+                s = sample()
+            nz = -s[15] / (s[31] * g_ft)
+            if not (a_lo <= s[0] <= a_hi and -b_max <= s[1] <= b_max
+                    and -phi_max <= s[10] <= phi_max and -th_max <= s[11] <= th_max
+                    and nz_lo <= nz <= nz_hi and s[3] <= m_max and s[4] >= h_lo):
+                if reason is None:
+                    reason = _violation(env, s)
+                if stop:
                     break
-            setter(value)
-        if thr is not None:
-            for node in throttle_nodes:
-                node.set_double_value(thr)
-    raw = np.frombuffer(rows, dtype=float).reshape(-1, width)
-    return raw, np.frombuffer(surf, dtype=float).reshape(-1, 4), reason
+            rows_extend(s)
+            surf_extend((*deflections, flap_read() if flap_read else 0.0))
+        self.deflections = deflections
+        return s, reason
 
 
 def _columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dict,

@@ -245,6 +245,25 @@ class Pilot:
         self.buffer = (deque([(0.0, 0.0)] * (n_delay + 1), maxlen=n_delay + 1)
                        if n_delay else None)
 
+    def hold(self, *, h: float | None = None, tas: float | None = None,
+             psi: float | None = None, resume: bool = False) -> None:
+        """Change what the pilot holds (pilot mode): altitude [m], airspeed [m/s], heading
+        [rad]; ``None`` keeps the current reference.
+
+        A whole flight changes its flight condition by moving these references a little
+        at a time (a climb, an acceleration). ``resume`` also forgets the delayed demands of
+        before (the pilot takes over again after an automatic maneuver); the integrators,
+        which hold the trim, are kept.
+        """
+        if h is not None:
+            self.h_ref = float(h)
+        if tas is not None:
+            self.v_ref = float(tas)
+        if psi is not None:
+            self.psi_ref = float(psi)
+        if resume and self.buffer is not None:
+            self.buffer.extend([(0.0, 0.0)] * self.buffer.maxlen)
+
     def command(self, state: AircraftState) -> tuple[float, float, float, float | None]:
         """Surface commands (de, da, dr) [rad] and throttle for the current true state.
 

@@ -1,7 +1,8 @@
 """A simulated campaign written the way a real flight-test record arrives.
 
-:func:`write_channel_record` joins a campaign's maneuvers into one continuous flight and
-writes one text file per channel (``time value`` per line, 10 Hz) in aviation units, with
+:func:`write_channel_record` joins a campaign's maneuvers into one continuous flight (or
+takes a whole flight as flown, :mod:`simplexspline.sim.whole_flight`), puts it between two
+ground segments, and writes one text file per channel (``time value`` per line, 10 Hz) in aviation units, with
 the gaps of a real instrumentation package: no sideslip vane, an empty heading channel, GPS
 latitude and longitude only (no GPS velocities), indicated airspeed and static air
 temperature instead of true airspeed and density, the normal load factor instead of the
@@ -80,38 +81,71 @@ def _ground(first: dict, n: int, lowest_m: float) -> dict:
     return g
 
 
-def _joined(df, rate_hz: float, transition_s: float, ground_s: float):
-    """One continuous flight at ``rate_hz``: a ground segment, then the maneuvers by
-    decreasing mass (fuel is burnt) with smooth cosine transitions between them; returns
-    columns, truth names, times and the maneuver list."""
-    step = int(round(float(df.attrs.get("sample_rate_hz", 100.0)) / rate_hz))
+#: Segment types of a whole flight (:mod:`simplexspline.sim.whole_flight`) that are not
+#: maneuvers: the flying between them.
+_NOT_MANEUVERS = ("steady", "turn", "transition")
+
+
+def _pieces(df, step: int):
+    """The flight pieces at the output rate, in flight order, with their maneuvers as
+    ``(first, last, type, id)`` sample spans inside each piece: a campaign's maneuvers by
+    decreasing mass (fuel is burnt), one maneuver each; or a whole flight (metadata
+    ``flight``) as one piece holding every maneuver it flew."""
+    segments = (df.attrs.get("flight") or {}).get("segments")
+    if segments is not None and df["maneuver"].nunique() == 1:
+        g = df.iloc[::step]
+        t = g["t"].to_numpy(dtype=float)
+        spans, k = [], 0
+        for seg in segments:
+            if seg["type"] in _NOT_MANEUVERS:
+                continue
+            a = int(np.searchsorted(t, seg["start_s"] - 1e-9))
+            b = int(np.searchsorted(t, seg["end_s"] + 1e-9)) - 1
+            if b > a:
+                spans.append((a, b, str(seg["type"]), k))
+                k += 1
+        return [(g, spans)]
     groups = sorted((g.iloc[::step] for _, g in df.groupby("maneuver", sort=True)),
                     key=lambda g: -float(g["mass"].iloc[0]))
+    return [(g, [(0, len(g) - 1, str(g["maneuver_type"].iloc[0]),
+                  int(g["maneuver"].iloc[0]))]) for g in groups]
+
+
+def _joined(df, rate_hz: float, transition_s: float, ground_s: float):
+    """One continuous flight at ``rate_hz``: a ground segment, the flight pieces with
+    smooth cosine transitions between them, a ground segment; returns columns, truth
+    names, times and the maneuver list."""
+    step = int(round(float(df.attrs.get("sample_rate_hz", 100.0)) / rate_hz))
+    pieces = _pieces(df, step)
     truth_cols = [c for c in df.columns if c.startswith("true_")]
     n_blend = int(round(transition_s * rate_hz))
     w = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, n_blend + 2)[1:-1])
     names = _BLENDED + tuple(truth_cols)
     blocks, spans, start = [], [], 0
     n_ground = int(round(ground_s * rate_hz))
+    lowest = min(float(np.nanmin(g["h"].to_numpy(dtype=float))) for g, _ in pieces)
     if n_ground:
-        first = {c: groups[0][c].to_numpy(dtype=float) for c in names}
-        lowest = min(float(np.nanmin(g["h"].to_numpy(dtype=float))) for g in groups)
+        first = {c: pieces[0][0][c].to_numpy(dtype=float) for c in names}
         ground = _ground(first, n_ground, lowest)
         blocks.append(ground)
         blocks.append({c: ground[c][-1] + (first[c][0] - ground[c][-1]) * w for c in names})
         start += n_ground + n_blend
-    for i, g in enumerate(groups):
+    for i, (g, inner) in enumerate(pieces):
         piece = {c: g[c].to_numpy(dtype=float) for c in names}
-        n = len(g)
-        spans.append((start, start + n - 1, str(g["maneuver_type"].iloc[0]),
-                      int(g["maneuver"].iloc[0])))
+        spans += [(start + a, start + b, typ, m) for a, b, typ, m in inner]
         blocks.append(piece)
-        start += n
-        if i + 1 < len(groups):
-            nxt = groups[i + 1]
+        start += len(g)
+        if i + 1 < len(pieces):
+            nxt = pieces[i + 1][0]
             blocks.append({c: piece[c][-1] + (nxt[c].iloc[0] - piece[c][-1]) * w
                            for c in piece})
             start += n_blend
+    if n_ground:   # the landing: back on the ground, taxiing in
+        last = {c: blocks[-1][c][-1:] for c in names}
+        ground = _ground(last, n_ground, lowest)
+        blocks.append({c: last[c][0] + (ground[c][0] - last[c][0]) * w for c in names})
+        blocks.append(ground)
+        start += n_blend + n_ground
     cols = {c: np.concatenate([b[c] for b in blocks]) for c in blocks[0]}
     t = _T0_RECORD + np.arange(start) / rate_hz
     return cols, truth_cols, t, spans
@@ -184,8 +218,9 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
     Parameters
     ----------
     df : pandas.DataFrame
-        A simulated campaign (:meth:`Campaign.run`): measured and ``true_*`` columns, the
-        metadata in ``df.attrs``.
+        A simulated campaign (:meth:`Campaign.run`) or a whole flight
+        (:meth:`~simplexspline.sim.whole_flight.WholeFlight.run`): measured and ``true_*``
+        columns, the metadata in ``df.attrs``.
     directory : path-like
         A directory that does not exist yet (or is empty); its files are written together
         (all or none, :func:`simplexspline._files.write_together`).
@@ -193,10 +228,11 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
         Output rate [Hz]; must divide the campaign's rate (instantaneous sampling, as a
         recorder without anti-alias filter).
     transition_s : float
-        Length of the smooth transition flown between two maneuvers [s] (not a maneuver).
+        Length of the smooth transition between two maneuvers of a campaign, and between
+        the ground and the flight [s] (not a maneuver).
     ground_s : float
-        Length of the ground segment (taxiing at 8 m/s, 300 m below the lowest maneuver)
-        that starts the record, as a real flight does [s]; 0 for none.
+        Length of the ground segments (taxiing at 8 m/s, 300 m below the lowest maneuver)
+        that start and end the record, as a real flight does [s]; 0 for none.
 
     Returns
     -------
@@ -205,7 +241,9 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
 
     Notes
     -----
-    The maneuvers are joined in order of decreasing mass, so that fuel used grows. The
+    A campaign's maneuvers are joined in order of decreasing mass, so that fuel used
+    grows; a whole flight is written as flown, ``maneuvers.csv`` listing the maneuvers of
+    its metadata ``flight.segments`` (not its steady flight, turns and climbs). The
     channels carry the campaign's measured values (noise, biases, lags, sensor geometry)
     converted to aviation units: ``ias`` is the calibrated airspeed of the measured Mach
     at the true static pressure; ``sat`` the true static temperature (a probe without
