@@ -32,7 +32,8 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help="output file, .parquet (preferred) or .csv")
     p.add_argument("--segments", choices=SEGMENT_METHODS, default=None,
                    help="how to cut the flight into maneuvers (default: the mapping's "
-                        "[segments] method, else 'airborne')")
+                        "[segments] method, else 'auto': the maneuver list if given, else "
+                        "excitation detection, else every airborne stretch)")
     p.add_argument("--maneuver-list", type=Path, default=None,
                    help="maneuver time list (CSV start,end,type or TOML [[maneuver]]); "
                         "implies --segments list")

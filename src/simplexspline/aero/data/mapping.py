@@ -61,7 +61,7 @@ AUXILIARY_CHANNELS: dict[str, tuple[str, str]] = {
 _TARGETS = {n: s.unit for n, s in FLIGHT_DATA_COLUMNS.items()
             if s.kind == "float" and not n.startswith("true_") and n != "t"}
 FORMATS = ("channels", "csv", "mat", "parquet")
-SEGMENT_METHODS = ("list", "excitation", "airborne")
+SEGMENT_METHODS = ("auto", "list", "excitation", "airborne")
 
 
 @dataclass(frozen=True)
@@ -176,29 +176,34 @@ class SegmentSpec:
 
     Attributes
     ----------
-    method : {'list', 'excitation', 'airborne'}
+    method : {'auto', 'list', 'excitation', 'airborne'}
         A maneuver time list; detection of control/rate activity; or every airborne stretch
-        as one maneuver.
+        as one maneuver. 'auto' (the default): the list when one is given, else detection,
+        else (when detection finds fewer than two maneuvers: a record of one maneuver) every
+        airborne stretch.
     list : Path or None
         CSV (columns start, end, type) or TOML (``[[maneuver]]`` start, end, type) in record
         time [s].
     threshold : float
-        Excitation: activity above ``threshold`` times the record's quiet level.
+        Excitation: activity above ``threshold`` times the quiet level around it.
     window_s, pad_s, merge_s, min_duration_s : float
         Activity window, padding before/after, merging of nearby maneuvers, shortest kept.
+    quiet_s : float
+        Excitation: window of the running quiet level (0: one level for the record).
     min_airspeed : float
         Without a weight-on-wheels channel, samples slower than this [m/s] are ground.
     min_height : float
         ... or lower than this [m] above the lowest altitude of the record.
     """
 
-    method: str = "airborne"
+    method: str = "auto"
     list: Path | None = None
-    threshold: float = 10.0
+    threshold: float = 30.0
     window_s: float = 1.0
     pad_s: float = 2.0
-    merge_s: float = 4.0
+    merge_s: float = 8.0
     min_duration_s: float = 5.0
+    quiet_s: float = 300.0
     min_airspeed: float = 25.0
     min_height: float = 15.0
 
@@ -425,13 +430,14 @@ def _channel(path: Path, text: str, target: str, entry) -> ChannelMap:
 
 def _segments(r: _Reader, base: Path) -> SegmentSpec:
     fields = {"threshold", "window_s", "merge_s", "min_duration_s"}
-    r.unknown({"method", "list", "pad_s", "min_airspeed", "min_height"} | fields)
-    method = r.str("method", "airborne", choices=SEGMENT_METHODS)
+    r.unknown({"method", "list", "pad_s", "quiet_s", "min_airspeed", "min_height"} | fields)
+    method = r.str("method", "auto", choices=SEGMENT_METHODS)
     lst = r.str("list")
     if method == "list" and lst is None:
         r.fail("method", "method 'list' needs list = \"maneuvers.csv\" (start, end, type)")
     kw = {k: r.number(k) for k in fields if k in r.table}
     kw["pad_s"] = r.number("pad_s", 2.0, positive=False)
+    kw["quiet_s"] = r.number("quiet_s", 300.0, positive=False)
     if "min_airspeed" in r.table:
         kw["min_airspeed"] = r.quantity("min_airspeed", "m/s")
     if "min_height" in r.table:

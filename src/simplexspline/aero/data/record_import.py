@@ -279,15 +279,31 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
     schema_cols = [k for k in cols if k in FLIGHT_DATA_COLUMNS]
     usable = airborne & np.all([np.isfinite(cols[k]) for k in schema_cols], axis=0)
     sanity = check_record({k: cols[k] for k in schema_cols}, dt, airborne)
-    if seg.method == "list":
+    method = seg.method
+    if method == "auto":
+        method = "list" if seg.list is not None else "excitation"
+    notes = []
+    if method == "list":
         segments = segmentation.read_maneuver_list(seg.list)
-    elif seg.method == "excitation":
+    elif method == "excitation":
         segments, _ = segmentation.detect_excitation(
             grid, cols, usable, threshold=seg.threshold, window_s=seg.window_s,
-            pad_s=seg.pad_s, merge_s=seg.merge_s)
+            pad_s=seg.pad_s, merge_s=seg.merge_s, quiet_s=seg.quiet_s)
     else:
         segments = segmentation.airborne_segments(grid, usable)
-    pieces, notes = segmentation.cut(grid, usable, segments, min_duration_s=seg.min_duration_s)
+    pieces, cut_notes = segmentation.cut(grid, usable, segments,
+                                         min_duration_s=seg.min_duration_s)
+    if seg.method == "auto" and method == "excitation" and len(pieces) < 2:
+        # a record of one maneuver (or of none that stands out): every airborne stretch
+        segments = segmentation.airborne_segments(grid, usable)
+        notes.append(f"method 'auto': excitation detection found {len(pieces)} maneuver(s); "
+                     "every airborne stretch is one instead")
+        method = "airborne"
+        pieces, cut_notes = segmentation.cut(grid, usable, segments,
+                                             min_duration_s=seg.min_duration_s)
+    if seg.method == "auto":
+        notes.insert(0, f"method 'auto': segments by {method}")
+    notes += cut_notes
     if not pieces:
         blocking = [k for k in schema_cols if not np.isfinite(cols[k][airborne]).any()]
         if blocking:
@@ -296,7 +312,7 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
                                   "the others'?)")
         why = "; ".join(notes[:3]) or "none airborne"
         raise FlightDataError(f"no usable maneuver in the record ({len(segments)} segment(s) "
-                              f"found by '{seg.method}'; {why}): check the ground rule, "
+                              f"found by '{method}'; {why}): check the ground rule, "
                               "dropouts and the segmentation settings")
     rows = np.concatenate([p for p, _ in pieces])
     frame = {"maneuver": np.concatenate([np.full(p.size, i, np.int64)

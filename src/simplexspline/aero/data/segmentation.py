@@ -156,18 +156,39 @@ def _moving_mean(x: np.ndarray, k: int) -> np.ndarray:
     return (c[hi] - c[lo]) / (hi - lo)
 
 
-def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: float = 10.0,
+def _quiet_level(energy: np.ndarray, quiet: np.ndarray, window: int, floor: float) -> np.ndarray:
+    """Running median of ``energy`` over the ``quiet`` samples in a centred window of
+    ``window`` samples (stretches without quiet samples take the nearest level), never
+    below ``floor``."""
+    import pandas as pd  # optional dependency (the 'aero' extra)
+
+    level = pd.Series(np.where(quiet, energy, np.nan)).rolling(
+        window, center=True, min_periods=max(1, window // 10)).median()
+    level = level.ffill().bfill().to_numpy()
+    return np.maximum(np.where(np.isfinite(level), level, floor), floor)
+
+
+def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: float = 30.0,
                       window_s: float = 1.0, baseline_s: float = 10.0, pad_s: float = 2.0,
-                      merge_s: float = 4.0) -> tuple[list[Segment], dict]:
+                      merge_s: float = 8.0, quiet_s: float = 300.0,
+                      passes: int = 2) -> tuple[list[Segment], dict]:
     """Maneuvers where control-surface or rate activity stands out of the quiet level.
 
     For each signal of :data:`EXCITATION_SIGNALS` present in ``data``: the deviation from a
-    ``baseline_s`` moving median, squared and averaged over ``window_s``, divided by its
-    20th percentile over the usable samples (the record's quiet level; at least 1e-4 of the
-    peak, for noise-free records). A sample is active
-    where any signal exceeds ``threshold``; active stretches closer than ``merge_s`` are
-    merged and padded by ``pad_s``. The type is ``excitation-<axis>`` of the most active
-    signal.
+    ``baseline_s`` moving median, squared and averaged over ``window_s`` (the activity),
+    divided by the **quiet level** around it. A sample is active where any signal exceeds
+    ``threshold``; active stretches closer than ``merge_s`` are merged and padded by
+    ``pad_s``. The type is ``excitation-<axis>`` of the most active signal.
+
+    The quiet level is what the pilot, the flight control system and turbulence do in
+    steady flight, and it changes along a flight (more turbulence low down, other gains at
+    other speeds). The first pass takes the record's quietest level (the 20th percentile of
+    the activity over the usable samples; at least 1e-4 of the peak, for noise-free
+    records); each of the ``passes`` further passes takes the running median of the
+    activity over the samples found quiet so far (not active, not within ``pad_s`` of
+    activity) in a window of ``quiet_s``, never below the first pass's level. A whole flight
+    in light turbulence is cut into its maneuvers this way, where one level for the whole
+    record counted the turbulent stretches as maneuvers.
 
     Parameters
     ----------
@@ -176,19 +197,28 @@ def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: flo
     data : mapping of str to ndarray
     usable : ndarray of bool, shape (n,)
         Airborne samples without dropouts.
+    threshold : float
+        Activity over quiet level that marks a maneuver.
+    window_s, baseline_s, pad_s, merge_s : float
+        Activity window, baseline median, padding, merging of close stretches [s].
+    quiet_s : float
+        Window of the running quiet level [s]; 0 keeps the record's quietest level.
+    passes : int
+        Passes that refine the quiet level (0: the record's quietest level only).
 
     Returns
     -------
     segments : list of Segment
     quiet : dict
-        Quiet level per signal used (its unit squared).
+        Median quiet level per signal used (its unit squared).
     """
-    from scipy.ndimage import median_filter  # lazy: scipy.ndimage costs ~0.4 s to import
+    # lazy: scipy.ndimage costs ~0.4 s to import
+    from scipy.ndimage import maximum_filter, median_filter
 
     dt = float(np.median(np.diff(t)))
     k = max(1, int(round(window_s / dt)))
     kb = max(3, int(round(baseline_s / dt)) | 1)
-    ratios, quiet = {}, {}
+    energies, floors = {}, {}
     for name in EXCITATION_SIGNALS:
         if name not in data:
             continue
@@ -197,19 +227,27 @@ def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: flo
             continue
         xf = _fill(x)
         energy = _moving_mean((xf - median_filter(xf, size=kb, mode="nearest")) ** 2, k)
-        # the quiet level; a floor of 1e-4 of the peak for noise-free (simulated) records
+        # the quietest level; a floor of 1e-4 of the peak for noise-free (simulated) records
         level = max(float(np.percentile(energy[usable], 20)),
                     1e-4 * float(energy[usable].max()))
         if not level > 0:
             continue
-        quiet[name] = level
-        ratios[name] = np.where(usable, energy / level, 0.0)
-    if not ratios:
+        energies[name], floors[name] = energy, level
+    if not energies:
         raise InputError("excitation detection needs at least one of de, da, dr, p, q, r with "
                          "data: map those channels, or give a maneuver list")
-    names = list(ratios)
-    stack = np.vstack([ratios[n] for n in names])
-    active = stack.max(axis=0) > threshold
+    names = list(energies)
+    levels = {n: np.full(len(t), floors[n]) for n in names}
+    window = int(round(quiet_s / dt)) | 1
+    for step in range(passes + 1 if quiet_s > 0 else 1):
+        stack = np.vstack([np.where(usable, energies[n] / levels[n], 0.0) for n in names])
+        active = stack.max(axis=0) > threshold
+        if step == passes or quiet_s <= 0:
+            break
+        near = max(1, int(round(pad_s / dt)))
+        busy = maximum_filter(active.astype(np.int8), size=2 * near + 1, mode="nearest") > 0
+        quiet = usable & ~active & ~busy
+        levels = {n: _quiet_level(energies[n], quiet, window, floors[n]) for n in names}
     runs = _runs(active)
     merged = []
     for a, b in runs:
@@ -222,7 +260,7 @@ def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: flo
         axis = EXCITATION_SIGNALS[names[int(np.argmax(stack[:, a:b].mean(axis=1)))]]
         segments.append(Segment(float(t[a]) - pad_s, float(t[b - 1]) + pad_s,
                                 f"excitation-{axis}"))
-    return segments, quiet
+    return segments, {n: float(np.median(levels[n][usable])) for n in names}
 
 
 def airborne_segments(t: np.ndarray, usable: np.ndarray, kind: str = "flight") -> list[Segment]:
