@@ -246,15 +246,19 @@ class Pilot:
                        if n_delay else None)
 
     def hold(self, *, h: float | None = None, tas: float | None = None,
-             psi: float | None = None, resume: bool = False) -> None:
+             psi: float | None = None, theta: float | None = None,
+             resume: bool = False) -> None:
         """Change what the pilot holds (pilot mode): altitude [m], airspeed [m/s], heading
-        [rad]; ``None`` keeps the current reference.
+        [rad], the pitch attitude of level flight [rad]; ``None`` keeps the current one.
 
         A whole flight changes its flight condition by moving these references a little
-        at a time (a climb, an acceleration). ``resume`` also forgets the delayed demands of
-        before (the pilot takes over again after an automatic maneuver); the integrators,
-        which hold the trim, are kept.
+        at a time (a climb, an acceleration; the pitch attitude of level flight changes with
+        the airspeed). ``resume`` also forgets the delayed demands of before (the pilot
+        takes over again after an automatic maneuver); the integrators, which hold the
+        trim, are kept.
         """
+        if theta is not None:
+            self.theta0 = float(theta)
         if h is not None:
             self.h_ref = float(h)
         if tas is not None:

@@ -285,20 +285,18 @@ class WholeFlight:
                 t_need = max(abs(h_end - h_start) / self.climb_rate_mps,
                              abs(v_end - v_start) / self.accel_mps2, 1.0)
                 chunks = int(math.ceil(t_need))
-                psi_hold = s[12]
+                cruise.hold(psi=s[12], resume=True)
                 one = int(round(1.0 / DT))
                 for j in range(1, chunks + int(_CATCH_UP_S) + 1):
                     f = min(1.0, j / chunks)
                     if f == 1.0 and abs(s[4] * u.FT - h_end) < 30.0 \
                             and abs(s[2] * u.FT - v_end) < 3.0:
                         break            # the aircraft got there
-                    # the pilot re-trims every second on the way (the pitch attitude of
-                    # level flight changes with the airspeed): a flight-path and airspeed
-                    # controller in increments
-                    cruise = Pilot("pilot", {**loop.trim(s), "phi": 0.0}, loop.airframe,
-                                   style=style, protection=loop.protection(s), dt=DT)
+                    # the pitch attitude of level flight changes with the airspeed: the
+                    # pilot re-trims it every second on the way
+                    level = s[11] + s[41] * u.FT / (s[2] * u.FT)    # theta - gamma
                     cruise.hold(h=h_start + f * (h_end - h_start),
-                                tas=v_start + f * (v_end - v_start), psi=psi_hold)
+                                tas=v_start + f * (v_end - v_start), theta=level)
                     reason = reason or fly(cruise, zeros * one, one)
                 kind = "transition"
             segments.append({"start_s": round(start * DT, 6),

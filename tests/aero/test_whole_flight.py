@@ -1,0 +1,90 @@
+"""A whole flight-test record, as a real one arrives, through import and identify (issue 16).
+
+The rehearsal of the check on a real Citation II record, small: one continuous flight of a
+business jet (global5000) through two test points with steady flight, turns and a speed
+change between its maneuvers, real-installation sensors, a steady wind and light
+turbulence, written at 10 Hz in aviation units with no sideslip vane, an empty heading
+channel, GPS latitude and longitude only, no thrust and taxiing at both ends; a mapping file
+without a maneuver list. ``simplexspline import`` then ``simplexspline identify`` with the
+defaults must run to the end with every modelled coefficient's validation R^2 positive, a
+positive lift-curve slope and a negative pitch stiffness. The full-size rehearsal is
+``benchmarks/bench_whole_flight.py`` (and the slow test below).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+pytest.importorskip("jsbsim")
+
+from simplexspline.aero.derivatives import derivatives, load_models  # noqa: E402
+from simplexspline.cli import main  # noqa: E402
+from simplexspline.sim import (FlightProtocol, SensorModel, Wind,  # noqa: E402
+                               write_channel_record)
+from simplexspline.sim.whole_flight import WholeFlight  # noqa: E402
+
+
+def _record(tmp_path, **flight):
+    df = WholeFlight("global5000", sensors=SensorModel.real_like(),
+                     wind=Wind((5.0, 12.0), "light"),
+                     protocol=FlightProtocol(mix={"3211": 2, "doublet": 1, "sum-of-sines": 1},
+                                             sos_duration_s=(20.0, 30.0)), **flight).run()
+    rec = write_channel_record(df, tmp_path / "record")
+    mapping = rec / "mapping.toml"
+    # the user has no maneuver log: no [segments] list, the default cuts by excitation
+    text = mapping.read_text()
+    mapping.write_text(text[:text.index("[segments]")])
+    return rec, mapping, df
+
+
+def _lift_slope(models) -> float:
+    """dCL/dalpha at the reference condition, CL = CX sin(alpha) - CZ cos(alpha)."""
+    d = derivatives(models, wrt=["alpha"])
+    a = float(d["alpha"].iloc[0])
+    cx, cz = float(models["CX"].predict(d)[0]), float(models["CZ"].predict(d)[0])
+    return (float(d["CX_alpha"].iloc[0]) * np.sin(a) + cx * np.cos(a)
+            - float(d["CZ_alpha"].iloc[0]) * np.cos(a) + cz * np.sin(a))
+
+
+def _check(tmp_path, mapping, capsys):
+    flight = tmp_path / "flight.parquet"
+    out = tmp_path / "identification"
+    assert main(["import", str(mapping), "-o", str(flight), "-q"]) == 0
+    assert main(["identify", str(flight), "-o", str(out), "--no-report", "-q"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    r2 = {c: e["r2"] for c, e in summary["coefficients"].items()}
+    assert set(r2) == {"CX", "CY", "CZ", "Cl", "Cm", "Cn"}
+    assert all(v > 0 for v in r2.values()), r2
+    models = load_models(out)
+    cl_alpha = _lift_slope(models)
+    cm_alpha = float(derivatives(models, wrt=["alpha"])["Cm_alpha"].iloc[0])
+    assert 2.0 < cl_alpha < 8.0, cl_alpha          # per rad; the simulator's is 4.35
+    assert cm_alpha < 0.0, cm_alpha
+    return summary, cl_alpha, cm_alpha
+
+
+def test_a_whole_flight_imports_and_identifies_with_the_defaults(tmp_path, capsys):
+    rec, mapping, _ = _record(tmp_path, legs=[(3000.0, 150.0), (3000.0, 185.0)],
+                              maneuvers=12, seed=3, steady_s=(10.0, 20.0))
+    _check(tmp_path, mapping, capsys)
+    flight = pd.read_parquet(tmp_path / "flight.parquet")
+    found = [(g["t_record"].iloc[0], g["t_record"].iloc[-1])
+             for _, g in flight.groupby("maneuver")]
+    flown = pd.read_csv(rec / "maneuvers.csv")
+    for _, m in flown.iterrows():     # every flown maneuver found (most of it)
+        assert max(min(b, m["end"]) - max(a, m["start"]) for a, b in found) \
+            > 0.5 * (m["end"] - m["start"]), m["type"]
+    outside = [(a, b) for a, b in found
+               if not any(min(b, m["end"]) > max(a, m["start"]) for _, m in flown.iterrows())]
+    assert len(outside) <= 2, outside  # a turn entry, a speed change: not maneuvers
+
+
+@pytest.mark.slow
+def test_a_long_whole_flight_through_four_test_points(tmp_path, capsys):
+    """The bench's flight (24 maneuvers, 40 minutes, four test points: about 2 minutes)."""
+    _, mapping, _ = _record(tmp_path, maneuvers=24, seed=1, steady_s=(20.0, 45.0))
+    _check(tmp_path, mapping, capsys)
