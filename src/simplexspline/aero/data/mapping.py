@@ -438,6 +438,9 @@ def _segments(r: _Reader, base: Path) -> SegmentSpec:
     kw = {k: r.number(k) for k in fields if k in r.table}
     kw["pad_s"] = r.number("pad_s", 2.0, positive=False)
     kw["quiet_s"] = r.number("quiet_s", 300.0, positive=False)
+    if kw["quiet_s"] < 0:
+        r.fail("quiet_s", "must be a finite number of seconds >= 0 (0: one quiet level for "
+                          f"the whole record), got {kw['quiet_s']:g}")
     if "min_airspeed" in r.table:
         kw["min_airspeed"] = r.quantity("min_airspeed", "m/s")
     if "min_height" in r.table:

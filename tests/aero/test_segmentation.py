@@ -1,0 +1,75 @@
+"""Whole flights cut into maneuvers: excitation against the quiet level around it, 'auto'."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from simplexspline.aero.data.record_import import import_record
+from simplexspline.aero.data.segmentation import detect_excitation
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "citation_like"
+
+
+def _flight(seed: int = 0):
+    """30 minutes at 10 Hz: turbulence 4x stronger in the first half (low down; it fades in
+    a 200 s climb), a 3211-like pulse train every 150 s."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 1800.0, 0.1)
+    sigma = np.interp(t, [0.0, 850.0, 1050.0, 1800.0], [4.0, 4.0, 1.0, 1.0]) * 1e-3
+    # turbulence: smooth noise (1 s correlation)
+    de = np.convolve(rng.standard_normal(t.size), np.ones(10) / np.sqrt(10), "same") * sigma
+    starts = np.arange(60.0, 1750.0, 150.0)
+    for s in starts:
+        for k, (a, b) in enumerate([(0, 3), (3, 5), (5, 6), (6, 7)]):
+            on = (t >= s + a) & (t < s + b)
+            de[on] += (-1) ** k * 0.02 * (4.0 if s < 900 else 1.0) ** 0.5
+    return t, {"de": de}, starts
+
+
+def test_turbulent_stretches_are_not_maneuvers_and_every_pulse_train_is():
+    t, data, starts = _flight()
+    usable = np.ones(t.size, bool)
+    segs, _ = detect_excitation(t, data, usable)
+    segs = [s for s in segs if s.end - s.start >= 5.0]      # the import's min_duration_s
+    assert len(segs) == len(starts)
+    for s, start in zip(segs, starts):
+        assert s.start <= start + 1.0 and s.end >= start + 6.0 and s.end - s.start < 20.0
+    # one quiet level for the record (the method before) takes the turbulent half for
+    # maneuvers: many more segments, some spanning several pulse trains
+    old, _ = detect_excitation(t, data, usable, threshold=10.0, merge_s=4.0, quiet_s=0.0)
+    assert len(old) != len(starts) or any(s.end - s.start > 150.0 for s in old)
+
+
+def _mapping(tmp_path, segments: str) -> Path:
+    text = (DATA / "mapping.toml").read_text().replace('path = "."', f'path = "{DATA}"')
+    text = text[:text.index("[segments]")] + segments
+    path = tmp_path / "mapping.toml"
+    path.write_text(text)
+    return path
+
+
+def test_without_segments_a_flight_is_cut_by_excitation(tmp_path):
+    result = import_record(_mapping(tmp_path, ""))
+    assert [s["type"] for s in result.segments()] == ["excitation-elevator",
+                                                      "excitation-aileron",
+                                                      "excitation-elevator"]
+    assert result.segment_notes[0] == "method 'auto': segments by excitation"
+
+
+def test_auto_falls_back_to_the_airborne_stretch_of_a_one_maneuver_record(tmp_path):
+    result = import_record(_mapping(tmp_path, "[segments]\nthreshold = 1e9\n"))
+    assert [s["type"] for s in result.segments()] == ["flight"]
+    assert any("excitation detection found 0 maneuver(s); every airborne stretch is one "
+               "instead" in n for n in result.segment_notes)
+
+
+@pytest.mark.parametrize("value", ["-1", "\"300 s\""])
+def test_quiet_window_must_be_a_number(tmp_path, value):
+    from simplexspline.errors import InputError
+
+    with pytest.raises(InputError, match=r"segments.quiet_s.*finite number"):
+        import_record(_mapping(tmp_path, f"[segments]\nmethod = \"excitation\"\n"
+                                         f"quiet_s = {value}\n"))
