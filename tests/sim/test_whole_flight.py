@@ -63,7 +63,7 @@ def test_the_pilot_flies_to_the_next_test_point_and_turns(sortie):
         g = _phase(sortie, seg)
         change = abs(np.unwrap(g["true_psi"].to_numpy())[-1] - g["true_psi"].iloc[0])
         assert math.radians(50) < change < math.radians(190)        # 60-180 deg planned
-        assert abs(g["true_phi"].iloc[-1]) < math.radians(3)         # wings level again
+        assert abs(g["true_phi"].iloc[-1]) < math.radians(5)         # wings level again
 
 
 def test_the_record_of_a_whole_flight_lists_its_maneuvers(sortie, tmp_path):
@@ -73,7 +73,7 @@ def test_the_record_of_a_whole_flight_lists_its_maneuvers(sortie, tmp_path):
              if s["type"] not in ("steady", "turn", "transition")]
     assert list(spans["type"]) == [s["type"] for s in flown]
     assert np.allclose(spans["end"] - spans["start"],
-                       [s["end_s"] - s["start_s"] for s in flown], atol=0.1)
+                       [s["end_s"] - s["start_s"] for s in flown], atol=0.2)  # 10 Hz
     ias = np.loadtxt(rec / "ias.txt", skiprows=1)[:, 1]
     assert ias[0] < 20 and ias[-1] < 20 and ias.max() > 300         # taxi, fly, taxi
 

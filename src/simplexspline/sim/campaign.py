@@ -40,7 +40,7 @@ from simplexspline.sim.wind import Wind
 from simplexspline.sim.sensors import SensorModel
 
 __all__ = ["Campaign", "ConditionGrid", "FlightProtocol", "simulate_campaign", "DEFAULT_MIX",
-           "isa_speed_of_sound"]
+           "isa_speed_of_sound", "split_counts"]
 
 #: Default fractions of maneuver families (about 40 s of flight per maneuver on average).
 DEFAULT_MIX: dict[str, float] = {"3211": 0.45, "doublet": 0.2, "sum-of-sines": 0.35}
@@ -70,7 +70,7 @@ def _half_spacing(grid: np.ndarray) -> np.ndarray:
     return 0.5 * np.minimum(left, right)
 
 
-def _counts(total: int, weights: Sequence[float]) -> list[int]:
+def split_counts(total: int, weights: Sequence[float]) -> list[int]:
     """Split ``total`` into integer counts proportional to ``weights`` (largest remainder)."""
     w = np.asarray(weights, dtype=float)
     exact = total * w / w.sum()
@@ -332,7 +332,7 @@ class Campaign:
         protocol = self.protocol
         fams = list(protocol.mix)
         kinds: list[str] = []
-        for fam, k in zip(fams, _counts(n, [protocol.mix[f] for f in fams])):
+        for fam, k in zip(fams, split_counts(n, [protocol.mix[f] for f in fams])):
             if fam == "sum-of-sines":
                 kinds += ["sum-of-sines"] * k
             else:

@@ -22,7 +22,7 @@ from simplexspline.sim.pilot import (Actuator, AircraftState, Airframe, Pilot, P
                                      Turn)
 from simplexspline.sim.sensors import SensorModel
 
-__all__ = ["simulate_maneuver", "trim_condition", "FlightLoop", "DT"]
+__all__ = ["simulate_maneuver", "trim_condition", "schema_columns", "FlightLoop", "DT"]
 
 DT = 0.01  #: sample time [s] (100 Hz)
 
@@ -170,7 +170,7 @@ def simulate_maneuver(spec: dict) -> dict:
             return {"columns": {}, "log": log}
     geometry = (fdm["metrics/Sw-sqft"] * u.FT**2, fdm["metrics/bw-ft"] * u.FT,
                 fdm["metrics/cbarw-ft"] * u.FT)
-    columns = _columns(raw, surf, geometry, spec, sensors)
+    columns = schema_columns(raw, surf, geometry, spec, sensors)
     return {"columns": columns, "log": log, "geometry": geometry}
 
 
@@ -353,7 +353,7 @@ class FlightLoop:
         return s, reason
 
 
-def _columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dict,
+def schema_columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dict,
              sensors: SensorModel) -> dict:
     """Schema columns (SI) from raw JSBSim samples: truth, thrust, sensors."""
     n = raw.shape[0]

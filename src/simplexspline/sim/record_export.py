@@ -2,14 +2,15 @@
 
 :func:`write_channel_record` joins a campaign's maneuvers into one continuous flight (or
 takes a whole flight as flown, :mod:`simplexspline.sim.whole_flight`), puts it between two
-ground segments, and writes one text file per channel (``time value`` per line, 10 Hz) in aviation units, with
-the gaps of a real instrumentation package: no sideslip vane, an empty heading channel, GPS
-latitude and longitude only (no GPS velocities), indicated airspeed and static air
-temperature instead of true airspeed and density, the normal load factor instead of the
-body z specific force, fuel used instead of mass. Beside the channels: ``maneuvers.csv``
-(start, end, type of every maneuver on the record's clock), ``mapping.toml`` (the mapping
-file of ``simplexspline import``) and ``truth.csv`` (the simulator's truth at the same
-instants, SI units and schema names, for checking an import).
+ground segments, and writes one text file per channel (``time value`` per line, 10 Hz) in
+aviation units, with the gaps of a real instrumentation package: no sideslip vane, an empty
+heading channel, GPS latitude and longitude only (no GPS velocities), indicated airspeed
+and static air temperature instead of true airspeed and density, the normal load factor
+instead of the body z specific force, fuel used instead of mass. Beside the channels:
+``maneuvers.csv`` (start, end, type of every maneuver on the record's clock),
+``mapping.toml`` (the mapping file of ``simplexspline import``) and ``truth.csv`` (the
+simulator's truth at the same instants, SI units and schema names, for checking an
+import).
 """
 
 from __future__ import annotations

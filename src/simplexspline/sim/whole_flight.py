@@ -26,9 +26,9 @@ from simplexspline.aero.data.flight_data import FLIGHT_DATA_COLUMNS, SCHEMA_VERS
 from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim import units as u
 from simplexspline.sim.aircraft import SURFACE_SIGN_CONVENTIONS, AircraftProfile, get_aircraft
-from simplexspline.sim.campaign import FlightProtocol, _counts, isa_speed_of_sound
+from simplexspline.sim.campaign import FlightProtocol, isa_speed_of_sound, split_counts
 from simplexspline.sim.fdm import quiet_scratch, set_wind, trim_fdm
-from simplexspline.sim.flight import DT, FlightLoop, _columns
+from simplexspline.sim.flight import DT, FlightLoop, schema_columns
 from simplexspline.sim.maneuvers import AXES, LEAD_S, design_maneuver, excitation
 from simplexspline.sim.pilot import Pilot, Turn
 from simplexspline.sim.sensors import SensorModel
@@ -168,11 +168,12 @@ class WholeFlight:
         protocol = self.protocol
         fams = list(protocol.mix)
         kinds: list = []
-        for fam, k in zip(fams, _counts(int(self.maneuvers), [protocol.mix[f] for f in fams])):
+        weights = [protocol.mix[f] for f in fams]
+        for fam, k in zip(fams, split_counts(int(self.maneuvers), weights)):
             kinds += (["sum-of-sines"] * k if fam == "sum-of-sines"
                       else [f"{fam}-{AXES[j % 3]}" for j in range(k)])
         kinds = [kinds[j] for j in rng.permutation(len(kinds))]
-        per_leg = _counts(len(kinds), [1.0] * len(self.legs))
+        per_leg = split_counts(len(kinds), [1.0] * len(self.legs))
         phases, i = [], 0
         for leg, count in enumerate(per_leg):
             if leg:
@@ -223,7 +224,7 @@ class WholeFlight:
             segments = self._fly(loop, phases, s)
         spec = {"seed": int(self.seed), "index": 0, "condition": 0,
                 "profile": self.profile.to_dict(), "cg_reference_in": cg0, "wind": wind}
-        columns = _columns(loop.raw(), loop.surfaces(), loop.geometry, spec, self.sensors)
+        columns = schema_columns(loop.raw(), loop.surfaces(), loop.geometry, spec, self.sensors)
         columns.pop("condition")
         names = [c for c in FLIGHT_DATA_COLUMNS if c in columns] + \
             [c for c in columns if c not in FLIGHT_DATA_COLUMNS]
