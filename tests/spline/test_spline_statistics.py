@@ -630,6 +630,7 @@ def test_gmres_aims_at_the_residual_the_fit_needs(monkeypatch, ridge):
     monkeypatch.setattr(constrained, "REFINE_MAXITER", 1)    # refinements "stall"
     monkeypatch.setattr(constrained, "_refine", refine)
     monkeypatch.setattr(constrained.spla, "gmres", gmres)
+    monkeypatch.setattr(constrained, "_null_space_solve", lambda *a, **k: None)
     got = space.solve(ne, ridge=ridge).coefficients
     assert asked and set(used) <= set(asked)
     if ridge:
@@ -637,3 +638,37 @@ def test_gmres_aims_at_the_residual_the_fit_needs(monkeypatch, ridge):
     else:
         assert set(asked) == {constrained.GMRES_RTOL} and used
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-8 * np.abs(want).max())
+
+
+@pytest.mark.parametrize("ridge", [1e-8, None])
+def test_a_stalled_dense_solve_goes_to_the_null_space_of_the_conditions(monkeypatch, ridge):
+    """When the first regularised pass of a dense system stalls, the fit is solved in the
+    null space of the conditions (no GMRES); the basis is kept for the next fit of the
+    same space, which then goes there directly. Same coefficients as the KKT passes."""
+    from simplexspline.spline.fit import constrained
+
+    rng = np.random.default_rng(7)
+    tri = Triangulation.grid(np.zeros(2), np.ones(2), (3, 3))
+    x = rng.random((3000, 2))
+    y = smooth_function(x) + 0.05 * rng.standard_normal(len(x))
+    space = SplineSpace(tri, 4, 1)
+    ne = space.normal_equations(x, y)
+    want = space.solve(ne, ridge=ridge).coefficients
+    gmres, eighs = [], []
+    real_eigh, real_refine = np.linalg.eigh, constrained._refine
+
+    def stalled_first_pass(*args, krylov=True, **kwargs):
+        return (None, None) if not krylov else real_refine(*args, krylov=krylov, **kwargs)
+
+    monkeypatch.setattr(constrained, "_refine", stalled_first_pass)
+    monkeypatch.setattr(constrained.spla, "gmres", lambda *a, **k: gmres.append(1))
+    monkeypatch.setattr(constrained.np.linalg, "eigh",
+                        lambda *a, **k: eighs.append(1) or real_eigh(*a, **k))
+    again = SplineSpace(tri, 4, 1)
+    for _ in range(2):
+        got = again.solve(ne, ridge=ridge)
+        np.testing.assert_allclose(got.coefficients, want, rtol=1e-7,
+                                   atol=1e-9 * np.abs(want).max())
+    assert not gmres and len(eighs) == 1
+    H = again.H_full
+    assert np.abs(H @ got.coefficients.ravel()).max() < 1e-10 * np.abs(want).max()

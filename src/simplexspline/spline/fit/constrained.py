@@ -369,7 +369,8 @@ def solve_constrained(ne, system, *, on_insufficient: str = "raise", ridge=None,
         if cache is not None:
             cache["points"] = coords
     g = _al_solve(Qg.tocsc(), qg, A, diag_mean, coords,
-                  cache.setdefault("cholesky", {}) if cache is not None else None, ridge=lam)
+                  cache.setdefault("cholesky", {}) if cache is not None else None, ridge=lam,
+                  null_cache=cache.setdefault("null_space", {}) if cache is not None else None)
     coef = g[gather].reshape(nsimp, dhat)
     return coef, _info(ne, coef, deficient, under, Zu, on_insufficient, lam, analyse)
 
@@ -479,7 +480,7 @@ def global_points(tri, degree: int, gather: np.ndarray, M: int) -> np.ndarray:
 
 def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
               coords: np.ndarray | None = None, cache: dict | None = None,
-              ridge: float = 0.0) -> np.ndarray:
+              ridge: float = 0.0, null_cache: dict | None = None) -> np.ndarray:
     """Minimise g'Qg g/2 - qg'g subject to A g = 0 (A may be rank deficient).
 
     Preconditioner: the regularised KKT matrix [Qg + sigma I, A'; A, -delta I], applied
@@ -493,6 +494,11 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
     ``ridge`` (absolute, already in ``Qg``): directions that only the ridge determines are
     known to relative accuracy ``eps * scale / ridge`` at best, so the accepted forward
     error of the refinement is relaxed accordingly (a 1e-8 relative ridge: about 1e-6).
+
+    Dense systems (at most :data:`DENSE_MAX` unknowns) whose first regularised pass does
+    not refine to the tolerance are solved in the null space of the conditions instead
+    (:func:`_null_space_solve`, the basis kept in ``null_cache`` for the next fit of the
+    same space); the later passes and GMRES only when that basis is not clear-cut.
     """
     tol = REFINE_TOL if ridge <= 0 else max(REFINE_TOL, 1e2 * np.finfo(float).eps * scale / ridge)
     # GMRES's residual target: round-off without a ridge; with one, what the relaxed
@@ -515,8 +521,21 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
 
     K = spla.LinearOperator((M + m, M + m), matvec=kkt, dtype=float)
     rhs = np.concatenate([qg, np.zeros(m)])
+    dense_null = m and M <= DENSE_MAX and null_cache is not None
+    if dense_null and _null_key(A) in null_cache:    # this space stalled before: direct
+        g = _null_space_solve(Qg, qg, A, null_cache)
+        if g is not None:
+            return g
     stable = None
-    for sigma, delta, krylov in kkt_passes(M, m, scale):
+    for npass, (sigma, delta, krylov) in enumerate(kkt_passes(M, m, scale)):
+        if npass == 1 and dense_null:
+            # the first pass stalled: the penalty's conditioning (1/delta times the
+            # conditions on top of a ridge-determined Gram matrix reaches 1e16) is the
+            # limit, not the data; in the null space of the conditions the reduced Gram
+            # matrix is as well conditioned as the data and the ridge make it
+            g = _null_space_solve(Qg, qg, A, null_cache)
+            if g is not None:
+                return g
         if sigma == 0 and ridge > 0 and stable is not None:
             # a ridge fit that a regularised pass solved to round-off (backward error):
             # the ridge, not the solver, limits its accuracy; the unregularised pass
@@ -545,6 +564,59 @@ def _al_solve(Qg: sp.csc_matrix, qg: np.ndarray, A: sp.csr_matrix, scale: float,
         # of 1e10 and more) limits the coefficients, not the solver
         return stable[:M]
     raise singular
+
+
+#: The null space of the conditions is clear-cut when the eigenvalues of A'A (rows of A
+#: scaled alike) fall into round-off ones, at most NULL_ROUNDOFF of the largest, and the
+#: others, at least NULL_SEPARATE of it (Kuhn-grid spaces: 1e-16 and 1e-2 or more; the
+#: nearly dependent conditions of Delaunay slivers can fill the gap, and then the
+#: iterative passes decide).
+NULL_ROUNDOFF = 1e-12
+NULL_SEPARATE = 1e-7
+#: Null-space bases kept per space (each at most DENSE_MAX^2 doubles).
+NULL_CACHE_SIZE = 4
+
+
+def _null_key(A: sp.csr_matrix) -> tuple:
+    return (A.shape, A.nnz, hash(A.indptr.tobytes()), hash(A.indices.tobytes()),
+            hash(A.data.tobytes()))
+
+
+def _null_space_solve(Qg, qg, A: sp.csr_matrix, cache: dict) -> np.ndarray | None:
+    """The minimiser of ``g'Qg g/2 - qg'g`` subject to ``A g = 0`` as ``g = N y``, ``N`` an
+    orthonormal basis of the null space of ``A`` (eigenvectors of the dense ``A'A``, kept
+    in ``cache``), ``y`` from a Cholesky factorisation of ``N' Qg N`` with one refinement
+    step; None when the null space is not clear-cut (see :data:`NULL_SEPARATE`) or
+    ``N' Qg N`` is not positive definite (undetermined directions without a ridge)."""
+    key = _null_key(A)
+    N = cache.get(key)
+    if N is None:
+        with kernels.one_blas_thread():
+            w, V = np.linalg.eigh((A.T @ A).toarray())
+        top = float(w[-1]) if len(w) else 0.0
+        if not top > 0:
+            return None
+        small = w <= NULL_ROUNDOFF * top
+        if not np.all(w[~small] >= NULL_SEPARATE * top):
+            cache[key] = False                  # not clear-cut: the iterative passes
+            return None
+        N = np.ascontiguousarray(V[:, small])
+        if len(cache) >= NULL_CACHE_SIZE:
+            cache.pop(next(iter(cache)))
+        cache[key] = N
+    if N is False or N.shape[1] == 0:
+        return None
+    with kernels.one_blas_thread():
+        R = N.T @ (Qg @ N)
+        b = N.T @ qg
+        try:
+            fac = sla.cho_factor(R, lower=True, check_finite=False)
+        except sla.LinAlgError:
+            return None
+        y = sla.cho_solve(fac, b, check_finite=False)
+        y += sla.cho_solve(fac, b - R @ y, check_finite=False)
+    g = N @ y
+    return g if np.all(np.isfinite(g)) else None
 
 
 def kkt_passes(M: int, m: int, scale: float) -> list[tuple[float, float, bool]]:
