@@ -8,7 +8,8 @@ term), or the absolute value of a column's distance from a breakpoint (``|mach-0
 ``|alpha+0.05|``, in the column's units: a kink there, the hinge ``max(0, v - k)`` of
 adaptive regression splines up to a part linear in ``v``), optionally followed by
 
-- ``[v1/v2]``: the scheduling variables the term depends on (constant along the others);
+- ``[v1/v2]``: the scheduling variables the term depends on (constant along the others;
+  ``[]``: a constant coefficient);
 - ``{v@KNOTS; w@KNOTS}``: the term's own breakpoints, a subset of the model's breakpoints
   of those variables. Across the grid planes of the model's other breakpoints of ``v``
   the term is one polynomial (no kink there), e.g. ``dr{beta@-30:30:10deg}`` in a model on
