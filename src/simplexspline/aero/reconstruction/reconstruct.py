@@ -1167,12 +1167,19 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     dt = float(np.median(np.abs(np.diff(t)))) if t.size > 1 else None
     for _ in range(_LAG_PASSES if settings.estimate_lags and settings.apply_estimated_lags
                    else 0):
-        found = significant_lags([r["lags"] for r in results if r["ok"]], dt)
+        per_maneuver = [r["lags"] for r in results if r["ok"]]
+        found = significant_lags(per_maneuver, dt)
         # undo the estimated lag on top of the one undone (a channel cannot lead)
         total = {ch: lags_applied.get(ch, 0.0) + lag for ch, lag in found.items()}
         total = {ch: v for ch, v in total.items() if 0.0 < v <= 2.0}
         if not total:
             break
+        # one channel per pass, the most significant: a late channel distorts the
+        # reconstruction and the others then look late too (a 0.08 s angle-of-attack lag
+        # made the airspeed look 0.11-0.17 s late in two of six single-maneuver tests)
+        first = max(total, key=lambda ch: np.median([abs(lags[ch][0]) / lags[ch][1]
+                                                     for lags in per_maneuver if ch in lags]))
+        total = {first: total[first]}
         lags_applied.update(total)
         geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
         tasks, calibration, results = _passes(df, geometry, settings, int(workers), progress)
