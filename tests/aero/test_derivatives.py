@@ -105,6 +105,25 @@ def test_derivatives_equal_the_analytic_partials(models):
     assert np.array_equal(t["samples_CZ"], counts[sid]) and counts.sum() == 3000
 
 
+def test_lift_curve_and_drag_slopes_from_the_body_axis_models():
+    """CL_alpha and CD_alpha from CX and CZ models of a known lift and drag polar
+    (CL = 0.2 + 4.5 alpha, CD = 0.02 + 0.6 alpha^2, as body-axis forces)."""
+    d = _data(4000, seed=3)
+    a = d["alpha"]
+    cl, cd = 0.2 + 4.5 * a, 0.02 + 0.6 * a**2
+    cx, cz = cl * np.sin(a) - cd * np.cos(a), -cl * np.cos(a) - cd * np.sin(a)
+    fit = replace(PLAIN_FIT, ridge=0.0, min_points=1)
+    both = {c: fit_structure(Structure(c, ("alpha", "mach"), 5, 1, (4, 1)), d, y, fit)
+            for c, y in (("CX", cx), ("CZ", cz))}
+    grid = np.linspace(-0.05, 0.25, 7)
+    t = derivatives(both, {"alpha": grid, "mach": 0.5})
+    np.testing.assert_allclose(t["CL_alpha"], 4.5, atol=2e-4)
+    np.testing.assert_allclose(t["CD_alpha"], 1.2 * grid, atol=2e-4)
+    assert t["inside_CL"].all() and t.attrs["derivatives"]["CL_alpha"]["coefficient"] == "CL"
+    assert "CL_alpha" not in derivatives(both["CZ"], {"alpha": grid, "mach": 0.5})
+    assert "CL_alpha" not in derivatives(both, {"alpha": grid, "mach": 0.5}, wrt=["mach"])
+
+
 def test_chain_rule_through_the_scaling_matches_finite_differences(cn_model):
     """Exact gradient (unit-box gradient / span) == central differences of predict, at
     points spread over 16 x 2 simplices of a non-polynomial fit."""

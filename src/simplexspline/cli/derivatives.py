@@ -318,7 +318,8 @@ def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) 
                      if k not in ref.attrs["derivatives"]
                      and not k.startswith(("inside_", "samples_")))
     print(f"at the reference condition ({cond}):")
-    for c in models:
+    # the models' coefficients, then the wind-axis lift and drag slopes derived from CX, CZ
+    for c in dict.fromkeys(d["coefficient"] for d in ref.attrs["derivatives"].values()):
         items = [f"{k} = {ref[k].iloc[0]:.4g} {d['unit']}"
                  for k, d in ref.attrs["derivatives"].items()
                  if d["coefficient"] == c and d["in_model"]]

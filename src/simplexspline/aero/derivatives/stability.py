@@ -366,6 +366,7 @@ def derivatives(models, at=None, *, wrt: Sequence[str] | None = None,
     geo = _geometry(models, geometry)
     parts = {c: _model_derivatives(model, cond, ref, geo, out_vars, outside)
              for c, model in models.items()}
+    parts.update(_wind_axis(models, parts, cond, ref, geo, out_vars, outside))
     shown = set(known) | set(out_vars) | {"tas"} | (set(at) if isinstance(at, Mapping) else set())
     table, cond_cols = _assemble(cond, parts, shown)
     table.attrs = {"derivatives": {k: v for p in parts.values() for k, v in p.info.items()},
@@ -374,6 +375,43 @@ def derivatives(models, at=None, *, wrt: Sequence[str] | None = None,
                    "variables": {c: list(m.variables) for c, m in models.items()},
                    "nbasis": {c: m.structure.nbasis for c, m in models.items()}}
     return table if layout == "wide" else long_table(table, cond_cols)
+
+
+def _wind_axis(models: Mapping, parts: Mapping, cond, ref: Mapping, geo: Mapping,
+               out_vars: Sequence[str], outside: str) -> dict:
+    """The lift-curve and drag slopes ``CL_alpha``, ``CD_alpha`` [1/rad] from the body-axis
+    CX and CZ models, when both exist and alpha is among the derivatives: with
+    ``CL = CX sin(alpha) - CZ cos(alpha)`` and ``CD = -CX cos(alpha) - CZ sin(alpha)``
+    (stability axes, zero sideslip),
+
+        CL_alpha = CX_alpha sin(a) + CX cos(a) - CZ_alpha cos(a) + CZ sin(a)
+        CD_alpha = -CX_alpha cos(a) + CX sin(a) - CZ_alpha sin(a) - CZ cos(a)
+
+    the total derivatives along alpha of the two models (CD includes thrust where the
+    coefficients do: records without thrust channels or a thrust model). Empty otherwise."""
+    if "alpha" not in out_vars or not {"CX", "CZ"} <= set(models):
+        return {}
+    vals, slopes, inside = {}, {}, []
+    for c in ("CX", "CZ"):
+        m = models[c]
+        x, _speed = _inputs(m, cond, ref, geo, [])
+        vals[c] = m.predict(x, outside="extrapolate" if outside == "extrapolate" else "nan")
+        slopes[c] = parts[c].columns[derivative_name(c, "alpha")]
+        inside.append(parts[c].inside)
+    alpha = (np.asarray(cond["alpha"], dtype=float) if "alpha" in cond.columns
+             else np.full(len(cond), float(ref["alpha"])))
+    sa, ca = np.sin(alpha), np.cos(alpha)
+    cx, cz, dcx, dcz = vals["CX"], vals["CZ"], slopes["CX"], slopes["CZ"]
+    both = inside[0] & inside[1]
+    out = {}
+    for name, val in (("CL", dcx * sa + cx * ca - dcz * ca + cz * sa),
+                      ("CD", -dcx * ca + cx * sa - dcz * sa - cz * ca)):
+        key = derivative_name(name, "alpha")
+        out[name] = _ModelDerivatives(
+            {key: val}, {key: {"coefficient": name, "variable": "alpha",
+                               "unit": derivative_unit("alpha"), "in_model": True,
+                               "model_variables": ["CX", "CZ"]}}, both, None, {})
+    return out
 
 
 def _check_options(rates: str, outside: str, layout: str) -> None:
