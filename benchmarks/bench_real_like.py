@@ -72,8 +72,9 @@ def installation(sensors: SensorModel, lags: bool = False) -> str:
     return "\n".join(lines)
 
 
-def with_truth(data: pd.DataFrame, truth_csv: Path) -> pd.DataFrame:
-    """The imported table with ``true_*`` columns from the record's truth file (by time)."""
+def with_truth(data: pd.DataFrame, truth_csv: Path, columns=TRUTH) -> pd.DataFrame:
+    """The imported table with ``true_*`` columns (of ``columns``) from the record's truth
+    file, matched by time."""
     truth = pd.read_csv(truth_csv)
     key = np.round(truth["t_record"].to_numpy() * 100).astype(np.int64)
     pos = pd.Series(np.arange(len(truth)), index=key)
@@ -81,7 +82,7 @@ def with_truth(data: pd.DataFrame, truth_csv: Path) -> pd.DataFrame:
     if rows.isna().any():
         raise RuntimeError("imported samples without a truth sample at the same time")
     out = data.copy()
-    for c in TRUTH:
+    for c in columns:
         if c in truth:
             out["true_" + c] = truth[c].to_numpy()[rows.to_numpy(dtype=np.int64)]
     out.attrs = data.attrs

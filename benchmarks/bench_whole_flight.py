@@ -42,28 +42,14 @@ from simplexspline.aero.derivatives import derivatives
 from simplexspline.sim import FlightProtocol, SensorModel, Wind, write_channel_record
 from simplexspline.sim.whole_flight import WholeFlight
 
+from bench_real_like import with_truth
+
 COEF = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 TRUTH = ("alpha", "beta", "tas", *COEF)
 
 
 def _rms(x) -> float:
     return float(np.sqrt(np.nanmean(np.square(np.asarray(x, dtype=float)))))
-
-
-def with_truth(data: pd.DataFrame, truth_csv: Path) -> pd.DataFrame:
-    """The imported table with ``true_*`` columns from the record's truth file (by time)."""
-    truth = pd.read_csv(truth_csv)
-    key = np.round(truth["t_record"].to_numpy() * 100).astype(np.int64)
-    pos = pd.Series(np.arange(len(truth)), index=key)
-    rows = pos.reindex(np.round(data["t_record"].to_numpy() * 100).astype(np.int64))
-    if rows.isna().any():
-        raise RuntimeError("imported samples without a truth sample at the same time")
-    out = data.copy()
-    for c in TRUTH:
-        if c in truth:
-            out["true_" + c] = truth[c].to_numpy()[rows.to_numpy(dtype=np.int64)]
-    out.attrs = data.attrs
-    return out
 
 
 def true_slopes(df: pd.DataFrame, segments: list) -> dict:
@@ -126,7 +112,7 @@ def run_variant(record: Path, variant: str, flown: list, legs: list, truth: dict
     t0 = time.perf_counter()
     imported = import_record(mapping)
     out["t_import"] = time.perf_counter() - t0
-    data = with_truth(imported.data, record / "truth.csv")
+    data = with_truth(imported.data, record / "truth.csv", TRUTH)
     found = [(g["t_record"].iloc[0], g["t_record"].iloc[-1])
              for _, g in data.groupby("maneuver")]
     out["match"] = match(found, flown)
