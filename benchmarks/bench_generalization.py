@@ -107,9 +107,11 @@ def identify_variant(df, gps: bool) -> tuple[list[dict], float, list[str]]:
     valid = result.validation
     for c, entry in result.summary()["coefficients"].items():
         model = result.results[c].model
-        keep = valid[f"inside_{c}"].to_numpy(dtype=bool)
-        cols = true_inputs(valid.loc[keep], model.variables, result.metadata)
-        err = model.predict(cols) - valid.loc[keep, f"true_{c}"].to_numpy(dtype=float)
+        cols = true_inputs(valid, model.variables, result.metadata)   # whole maneuvers
+        keep = valid[f"inside_{c}"].to_numpy(dtype=bool) & np.all(
+            np.isfinite(np.column_stack(list(cols.values()))), axis=1)
+        pred = model.predict({v: x[keep] for v, x in cols.items()})
+        err = pred - valid.loc[keep, f"true_{c}"].to_numpy(dtype=float)
         at_truth = float(np.sqrt(np.mean(err ** 2))) if keep.any() else float("nan")
         noise = entry.get("noise_rms")
         rows.append({"coefficient": c, "rms_true": entry.get("rms_true"),
