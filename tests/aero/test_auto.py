@@ -212,3 +212,14 @@ def test_search_finds_a_mach_kink_it_was_not_told_about():
 def test_unknown_move_kinds_are_named():
     with pytest.raises(InputError, match="unknown move kind.*'kink'"):
         SelectionSettings(moves=("degree", "kink"))
+
+
+def test_the_kink_screen_spreads_over_terms_and_variables():
+    """Neighbouring breakpoints of one term and variable do not fill the screen's places."""
+    from simplexspline.aero.selection.search import _kink_group, _one_per_group
+
+    moves = ["add kink beta*|mach-0.612|[alpha]", "add kink beta*|mach-0.609|[alpha]",
+             "add kink da*|beta|", "add kink beta*|alpha-0.1|[mach]"]
+    groups = [_kink_group(m) for m in moves]
+    assert groups[0] == groups[1] and len(set(groups)) == 3
+    assert _one_per_group([0, 1, 2, 3], groups) == [0, 2, 3, 1]

@@ -44,7 +44,7 @@ from simplexspline.aero.modelling.prior import (
     coarse_structure,
     virtual_samples,
 )
-from simplexspline.aero.modelling.notation import multiplier_factors
+from simplexspline.aero.modelling.notation import multiplier_factors, multiplier_parts
 from simplexspline.aero.modelling.structure import Structure, multiplier_values
 from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.varying import VaryingCoefficientSpace
@@ -641,9 +641,32 @@ def screen_moves(best: Structure, moves: list, columns: Mapping, y: np.ndarray,
                 v = (v - v.mean()) / (v.std() or 1.0)
                 feats = [v * v, np.abs(v), v ** 3, v * z0]
             gains.append(_explained(np.vstack(feats), resid))
-        order = np.argsort(gains)[::-1][:settings.screen]
-        kept.extend(items[i] for i in order)
+        order = np.argsort(gains)[::-1]
+        if kind == "add kink ":
+            # one breakpoint per term and variable: neighbouring quantiles of one kink
+            # (Mach 0.609 and 0.612) would take the cross-validations' places
+            order = _one_per_group(order, [_kink_group(m) for m, _c in items])
+        kept.extend(items[i] for i in order[:settings.screen])
     return kept
+
+
+def _kink_group(move: str) -> tuple:
+    """The term and the variable of an 'add kink' move: ``'add kink beta*|mach-0.6|[alpha]'``
+    -> ('beta', 'mach')."""
+    term = move[len("add kink "):]
+    parts = multiplier_parts(term)
+    kink = [c for c, a, _k in parts if a]
+    rest = [(c, a) for c, a, _k in parts]
+    return str(rest), kink[-1] if kink else ""
+
+
+def _one_per_group(order, groups) -> list:
+    """``order`` with every index after the first of its group moved behind the others."""
+    seen, first, later = set(), [], []
+    for i in order:
+        (later if groups[i] in seen else first).append(i)
+        seen.add(groups[i])
+    return first + later
 
 
 def _explained(features: np.ndarray, resid: np.ndarray) -> float:
