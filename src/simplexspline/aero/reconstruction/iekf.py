@@ -43,6 +43,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg.lapack import dposv
 
+from simplexspline.aero.reconstruction import filter_kernels
 from simplexspline.aero.reconstruction.kinematics import (
     NX, NZ, PSI_MEAS, EarthModel, measure, propagate,
 )
@@ -235,7 +236,20 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
         (n, 26, 26) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
         prediction (NaN where not measured), ``innov_var`` (n, 12) their predicted variances,
         ``iterations`` (n,) int, ``loglik`` (float) the log-likelihood of the measurements.
+
+    Notes
+    -----
+    With numba (:data:`~simplexspline.aero.reconstruction.filter_kernels.HAVE_NUMBA`) the
+    pass runs compiled (:func:`~simplexspline.aero.reconstruction.filter_kernels.filter_pass`,
+    the same results to round-off); where it meets a non-positive-definite innovation
+    covariance or a non-finite state, the Python path below reruns the pass and raises
+    its error.
     """
+    if filter_kernels.HAVE_NUMBA:
+        out = _run_filter_compiled(initial, u, z, dt, g, earth, noise, iteration, arm,
+                                   specific_force, gust_decay)
+        if out is not None:
+            return out
     n = u.shape[0]
     x_filt = np.empty((n, NX))
     P_filt = np.empty((n, NX, NX))
@@ -275,6 +289,36 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
             "loglik": float(loglik)}
 
 
+def _run_filter_compiled(initial: StateEstimate, u, z, dt, g, earth: EarthModel,
+                         noise: FilterNoise, iteration: IteratedUpdate, arm,
+                         specific_force: bool, gust_decay: float) -> dict | None:
+    """:func:`run_filter` by the compiled kernel; None where it stopped on numerical
+    trouble (the Python path then reproduces the reference's error)."""
+    n = u.shape[0]
+    out = {"x_filt": np.empty((n, NX)), "P_filt": np.empty((n, NX, NX)),
+           "x_pred": np.empty((n, NX)), "P_pred": np.empty((n, NX, NX)),
+           "F": np.empty((n, NX, NX)), "innov": np.full((n, NZ), np.nan),
+           "innov_var": np.full((n, NZ), np.nan), "iterations": np.zeros(n, dtype=np.int64)}
+    params = np.array([earth.rn, earth.rm, earth.tan_lat, *earth.wie, float(earth.rotation)])
+    arm = np.zeros((n, 6)) if arm is None else np.ascontiguousarray(arm, dtype=float)
+    status, _, loglik = filter_kernels.filter_pass(
+        np.array(initial.x, dtype=float), np.array(initial.P, dtype=float),
+        np.ascontiguousarray(u, dtype=float), np.ascontiguousarray(z, dtype=float),
+        float(dt), np.ascontiguousarray(g, dtype=float), params,
+        np.asarray(noise.measurement_std, dtype=float) ** 2,
+        np.asarray(noise.input_std, dtype=float) ** 2,
+        np.ascontiguousarray(noise.process_var, dtype=float), float(iteration.tol),
+        int(iteration.max_iter), arm, bool(specific_force), float(gust_decay),
+        out["x_filt"], out["P_filt"], out["x_pred"], out["P_pred"], out["F"], out["innov"],
+        out["innov_var"], out["iterations"])
+    # the kernel checks the states per sample; a non-finite covariance is found here
+    if status != filter_kernels.OK or not (np.isfinite(out["P_filt"]).all()
+                                           and np.isfinite(out["P_pred"]).all()):
+        return None
+    out["loglik"] = float(loglik)
+    return out
+
+
 def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
     """Rauch-Tung-Striebel fixed-interval smoother over a forward pass.
 
@@ -300,6 +344,11 @@ def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.n
     xs = xf.copy()
     if n < 2:
         return xs, (np.diagonal(Pf, axis1=1, axis2=2).copy() if covariance else None)
+    if filter_kernels.HAVE_NUMBA and not covariance:
+        # the gains applied to the vectors, one solve per sample (smooth_pass)
+        filter_kernels.smooth_pass(*(np.ascontiguousarray(a, dtype=float)
+                                     for a in (xf, Pf, xp, Pp, F)), xs)
+        return xs, None
     # C_k' = P_p[k+1]^-1 F_k P_f[k]   (P symmetric)
     Ct = np.linalg.solve(Pp[1:], F[:-1] @ Pf[:-1])
     C = np.transpose(Ct, (0, 2, 1))
