@@ -344,16 +344,19 @@ def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.n
     xs = xf.copy()
     if n < 2:
         return xs, (np.diagonal(Pf, axis1=1, axis2=2).copy() if covariance else None)
-    if filter_kernels.HAVE_NUMBA and not covariance:
+    compiled = filter_kernels.HAVE_NUMBA
+    if compiled:
         # the gains applied to the vectors, one solve per sample (smooth_pass)
         filter_kernels.smooth_pass(*(np.ascontiguousarray(a, dtype=float)
                                      for a in (xf, Pf, xp, Pp, F)), xs)
-        return xs, None
+        if not covariance:
+            return xs, None
     # C_k' = P_p[k+1]^-1 F_k P_f[k]   (P symmetric)
     Ct = np.linalg.solve(Pp[1:], F[:-1] @ Pf[:-1])
     C = np.transpose(Ct, (0, 2, 1))
-    for k in range(n - 2, -1, -1):
-        xs[k] = xf[k] + C[k] @ (xs[k + 1] - xp[k + 1])
+    if not compiled:
+        for k in range(n - 2, -1, -1):
+            xs[k] = xf[k] + C[k] @ (xs[k + 1] - xp[k + 1])
     var = None
     if covariance:
         var = np.empty((n, NX))
