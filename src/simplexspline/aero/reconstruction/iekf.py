@@ -311,9 +311,7 @@ def _run_filter_compiled(initial: StateEstimate, u, z, dt, g, earth: EarthModel,
         int(iteration.max_iter), arm, bool(specific_force), float(gust_decay),
         out["x_filt"], out["P_filt"], out["x_pred"], out["P_pred"], out["F"], out["innov"],
         out["innov_var"], out["iterations"])
-    # the kernel checks the states per sample; a non-finite covariance is found here
-    if status != filter_kernels.OK or not (np.isfinite(out["P_filt"]).all()
-                                           and np.isfinite(out["P_pred"]).all()):
+    if status != filter_kernels.OK:
         return None
     out["loglik"] = float(loglik)
     return out
