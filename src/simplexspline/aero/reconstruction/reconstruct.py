@@ -315,8 +315,10 @@ def innovation_statistics(innov: np.ndarray, innov_var: np.ndarray, max_lag: int
         e = innov[ok, j]
         nu = e / np.sqrt(innov_var[ok, j])
         d = e - e.mean()
-        spec = np.fft.rfft(d, 2 * n)                  # autocorrelation by FFT (no BLAS)
-        acov = np.fft.irfft(spec.real ** 2 + spec.imag ** 2, 2 * n)[:max_lag + 1]
+        # autocovariances at lags 0..max_lag as direct sums (no BLAS): O(max_lag n), where
+        # an FFT of length 2n cost 30-100x more for the lengths that factor badly (2.4 ms
+        # at n = 4507 against 0.07 ms; 1.2 s of a 60-maneuver reconstruction's 10 s)
+        acov = np.array([(d[:n - lag] * d[lag:]).sum() for lag in range(max_lag + 1)])
         ac = acov[1:] / acov[0] if acov[0] > 0 else np.zeros(max_lag)
         out[name] = {"samples": n, "mean": float(nu.mean()), "std": float(nu.std()),
                      "rho1": float(ac[0]),
