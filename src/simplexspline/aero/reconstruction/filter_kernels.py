@@ -289,14 +289,18 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         H[7, 3], H[7, 4], H[7, 5] = g10, g11, g12
         H[8, 3], H[8, 4], H[8, 5] = g20, g21, g22
         # d C_nb / d phi, d theta, d psi (kinematics._dcm_derivatives)
-        dC[0, 0, 0], dC[0, 0, 1], dC[0, 0, 2] = 0.0, cf * st * cp + sf * sp, -sf * st * cp + cf * sp
-        dC[0, 1, 0], dC[0, 1, 1], dC[0, 1, 2] = 0.0, cf * st * sp - sf * cp, -sf * st * sp - cf * cp
+        dC[0, 0, 0] = 0.0
+        dC[0, 0, 1], dC[0, 0, 2] = cf * st * cp + sf * sp, -sf * st * cp + cf * sp
+        dC[0, 1, 0] = 0.0
+        dC[0, 1, 1], dC[0, 1, 2] = cf * st * sp - sf * cp, -sf * st * sp - cf * cp
         dC[0, 2, 0], dC[0, 2, 1], dC[0, 2, 2] = 0.0, cf * ct, -sf * ct
         dC[1, 0, 0], dC[1, 0, 1], dC[1, 0, 2] = -st * cp, sf * ct * cp, cf * ct * cp
         dC[1, 1, 0], dC[1, 1, 1], dC[1, 1, 2] = -st * sp, sf * ct * sp, cf * ct * sp
         dC[1, 2, 0], dC[1, 2, 1], dC[1, 2, 2] = -ct, -sf * st, -cf * st
-        dC[2, 0, 0], dC[2, 0, 1], dC[2, 0, 2] = -ct * sp, -sf * st * sp - cf * cp, -cf * st * sp + sf * cp
-        dC[2, 1, 0], dC[2, 1, 1], dC[2, 1, 2] = ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp
+        dC[2, 0, 0] = -ct * sp
+        dC[2, 0, 1], dC[2, 0, 2] = -sf * st * sp - cf * cp, -cf * st * sp + sf * cp
+        dC[2, 1, 0] = ct * cp
+        dC[2, 1, 1], dC[2, 1, 2] = sf * st * cp - cf * sp, cf * st * cp + sf * sp
         dC[2, 2, 0], dC[2, 2, 1], dC[2, 2, 2] = 0.0, 0.0, 0.0
         for j in range(3):
             # v = dC_j' W (body components of the wind's rate of change with the angle)

@@ -1042,7 +1042,34 @@ def _tasks(df, geometry: dict | None = None) -> list[dict]:
     return tasks
 
 
-def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
+class _Workers:
+    """The worker processes of one reconstruction, shared by its passes (the campaign
+    calibration, the maneuvers, the passes with lags undone): started on first use.
+
+    A pool per pass started and imported the package in every worker each time (about
+    1.5 s of CPU per worker, twice per pass).
+    """
+
+    def __init__(self, workers: int):
+        self.workers = workers
+        self._pool = None
+
+    def pool(self) -> ProcessPoolExecutor:
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                initializer=ignore_interrupts)
+        return self._pool
+
+    def __enter__(self) -> _Workers:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+
+
+def _run_all(tasks: list, settings: dict, workers: _Workers, progress: bool) -> list:
     from tqdm import tqdm  # optional dependency (the 'aero' extra)
 
     payload = [{k: v for k, v in t.items() if k != "rows"} for t in tasks]
@@ -1050,23 +1077,20 @@ def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
     order = sorted(range(len(tasks)), key=lambda i: -len(tasks[i]["t"]))
     with tqdm(total=len(tasks), desc="reconstruct", unit="maneuver", disable=not progress,
               leave=False) as bar:
-        if workers == 1 or len(tasks) <= 1:
+        if workers.workers == 1 or len(tasks) <= 1:
             for i in order:
                 results[i] = reconstruct_maneuver(payload[i], settings)
                 bar.update(1)
             return results
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                 initializer=ignore_interrupts) as pool:
-            futures = {pool.submit(reconstruct_maneuver, payload[i], settings): i
-                       for i in order}
-            for fut in as_completed(futures):
-                results[futures[fut]] = fut.result()
-                bar.update(1)
+        pool = workers.pool()
+        futures = {pool.submit(reconstruct_maneuver, payload[i], settings): i for i in order}
+        for fut in as_completed(futures):
+            results[futures[fut]] = fut.result()
+            bar.update(1)
     return results
 
 
-def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: int,
+def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: _Workers,
                           progress: bool) -> dict:
     """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
 
@@ -1110,7 +1134,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
 _LAG_PASSES = 3
 
 
-def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: int,
+def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: _Workers,
             progress: bool) -> tuple[list, dict, list]:
     """The maneuvers' tasks, the campaign calibration and the per-maneuver results."""
     tasks = _tasks(df, geometry)
@@ -1186,28 +1210,29 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     if int(workers) != workers or workers < 1:
         raise InputError(f"workers must be a positive integer, got {workers!r}")
     geometry = _geometry(meta)
-    tasks, calibration, results = _passes(df, geometry, settings, int(workers), progress)
-    lags_applied = {ch: float(v) for ch, v in geometry["lag_s"].items() if v}
-    t = df["t"].to_numpy(dtype=float)
-    dt = float(np.median(np.abs(np.diff(t)))) if t.size > 1 else None
-    for _ in range(_LAG_PASSES if settings.estimate_lags and settings.apply_estimated_lags
-                   else 0):
-        per_maneuver = [r["lags"] for r in results if r["ok"]]
-        found = significant_lags(per_maneuver, dt)
-        # undo the estimated lag on top of the one undone (a channel cannot lead)
-        total = {ch: lags_applied.get(ch, 0.0) + lag for ch, lag in found.items()}
-        total = {ch: v for ch, v in total.items() if 0.0 < v <= 2.0}
-        if not total:
-            break
-        # one channel per pass, the most significant: a late channel distorts the
-        # reconstruction and the others then look late too (a 0.08 s angle-of-attack lag
-        # made the airspeed look 0.11-0.17 s late in two of six single-maneuver tests)
-        first = max(total, key=lambda ch: np.median([abs(lags[ch][0]) / lags[ch][1]
-                                                     for lags in per_maneuver if ch in lags]))
-        total = {first: total[first]}
-        lags_applied.update(total)
-        geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
-        tasks, calibration, results = _passes(df, geometry, settings, int(workers), progress)
+    with _Workers(int(workers)) as pool:          # shared by all passes
+        tasks, calibration, results = _passes(df, geometry, settings, pool, progress)
+        lags_applied = {ch: float(v) for ch, v in geometry["lag_s"].items() if v}
+        t = df["t"].to_numpy(dtype=float)
+        dt = float(np.median(np.abs(np.diff(t)))) if t.size > 1 else None
+        for _ in range(_LAG_PASSES if settings.estimate_lags and settings.apply_estimated_lags
+                       else 0):
+            per_maneuver = [r["lags"] for r in results if r["ok"]]
+            found = significant_lags(per_maneuver, dt)
+            # undo the estimated lag on top of the one undone (a channel cannot lead)
+            total = {ch: lags_applied.get(ch, 0.0) + lag for ch, lag in found.items()}
+            total = {ch: v for ch, v in total.items() if 0.0 < v <= 2.0}
+            if not total:
+                break
+            # one channel per pass, the most significant: a late channel distorts the
+            # reconstruction and the others then look late too (a 0.08 s angle-of-attack lag
+            # made the airspeed look 0.11-0.17 s late in two of six single-maneuver tests)
+            first = max(total, key=lambda ch: np.median([abs(lags[ch][0]) / lags[ch][1]
+                                                         for lags in per_maneuver if ch in lags]))
+            total = {first: total[first]}
+            lags_applied.update(total)
+            geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
+            tasks, calibration, results = _passes(df, geometry, settings, pool, progress)
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
         m = task["maneuver"]
