@@ -3,6 +3,9 @@
 Numeric kernels on plain arrays; the state and measurement equations are in
 :mod:`simplexspline.aero.reconstruction.kinematics`, the per-maneuver driver
 (initialisation, checks, outputs) in :mod:`simplexspline.aero.reconstruction.reconstruct`.
+With numba the forward pass and the smoother's means run compiled
+(:mod:`simplexspline.aero.reconstruction.filter_kernels`, the same operations); the Python
+code here is the reference, and the path without numba.
 
 Measurement update (iterated, Gauss-Newton on the measurement equation; Jazwinski 1970)::
 
