@@ -27,7 +27,7 @@ from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
 from simplexspline.aero.reconstruction.kinematics import (
-    GUST, MEASUREMENT_NAMES, NX, EarthModel, measure, propagate,
+    GUST, MEASUREMENT_NAMES, NX, NZ, PSI_MEAS, EarthModel, measure, propagate,
 )
 from simplexspline.aero.reconstruction.reconstruct import ReconstructionSettings
 
@@ -36,6 +36,11 @@ pytestmark = pytest.mark.skipif(not filter_kernels.HAVE_NUMBA, reason="numba not
 RTOL = 1e-9
 GPS = ["x_gps", "y_gps", "z_gps", "vn_gps", "ve_gps", "vd_gps"]
 DT = 0.02
+
+
+def test_kernel_constants_match_the_model():
+    assert (filter_kernels._NX, filter_kernels._NZ, filter_kernels._PSI_MEAS) == (
+        NX, NZ, PSI_MEAS)
 
 
 def _both(monkeypatch, fn):

@@ -4,11 +4,13 @@ The same equations as the Python reference path (:mod:`~simplexspline.aero.recon
 kinematics` for the model, :mod:`~simplexspline.aero.reconstruction.iekf` for the filter),
 written as loops over plain arrays so that numba compiles the whole per-sample recursion:
 prediction, measurement model and Jacobian, the iterated update with its stopping rule and
-the Joseph-form covariance update, and the smoother's backward pass. They exploit the
-sparsity of the transition matrix and of the measurement Jacobian (products skip their
-structural zeros, which only adds or drops exact zeros) and the diagonal noise covariances;
-otherwise the operations are those of the reference, so the results agree with it to
-round-off (``tests/aero/test_filter_kernels.py`` runs both).
+the Joseph-form covariance update, and the smoother's backward pass. The matrix products
+are the reference's, in the same grouping and by BLAS as there (``P H'``, ``H (P H')``, the
+Joseph form ``(I - K H) P (I - K H)' + K R K'``, ``F P F'``): the Joseph form regrouped as
+``P - K (P H')'`` moved weakly observed states by 1e-6 of their sigma, the mirrored form by
+1e-10. The gain's small Cholesky solve is the kernel's own, and the smoother applies each
+gain to its vector instead of forming it (less work, the same to round-off). The results
+agree with the reference to round-off (``tests/aero/test_filter_kernels.py`` runs both).
 
 Installed with the ``fast`` extra; ``SIMPLEXSPLINE_NO_NUMBA=1`` in the environment (or
 :data:`HAVE_NUMBA` set False) leaves the Python path in charge. The kernels never raise on
@@ -51,9 +53,10 @@ NOT_POSITIVE_DEFINITE = 1
 #: Status: a state or covariance became non-finite (at the returned sample).
 NOT_FINITE = 2
 
+# compile-time constants (tests/aero/test_filter_kernels.py checks them against kinematics)
 _NX = 26            # states (kinematics.STATE_NAMES)
 _NZ = 12            # measurements (kinematics.MEASUREMENT_NAMES)
-_PSI_MEAS = 11      # row of the heading in the measurement vector
+_PSI_MEAS = 11      # row of the heading in the measurement vector (kinematics.PSI_MEAS)
 _TWO_PI = 2.0 * math.pi
 _LOG_TWO_PI = math.log(2.0 * math.pi)
 
