@@ -1,7 +1,8 @@
 """Flight path reconstruction: kinematics, IEKF + RTS smoother, per-maneuver runs.
 
 :mod:`~simplexspline.aero.reconstruction.kinematics` (state model and Jacobians),
-:mod:`~simplexspline.aero.reconstruction.iekf` (the filter and smoother of one maneuver) and
+:mod:`~simplexspline.aero.reconstruction.iekf` (the filter and smoother of one maneuver; compiled
+by numba in :mod:`~simplexspline.aero.reconstruction.filter_kernels`) and
 :mod:`~simplexspline.aero.reconstruction.reconstruct` (all maneuvers, in parallel).
 """
 

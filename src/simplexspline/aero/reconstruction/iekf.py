@@ -3,6 +3,9 @@
 Numeric kernels on plain arrays; the state and measurement equations are in
 :mod:`simplexspline.aero.reconstruction.kinematics`, the per-maneuver driver
 (initialisation, checks, outputs) in :mod:`simplexspline.aero.reconstruction.reconstruct`.
+With numba the forward pass and the smoother's means run compiled
+(:mod:`simplexspline.aero.reconstruction.filter_kernels`, the same operations); the Python
+code here is the reference, and the path without numba.
 
 Measurement update (iterated, Gauss-Newton on the measurement equation; Jazwinski 1970)::
 
@@ -43,6 +46,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg.lapack import dposv
 
+from simplexspline.aero.reconstruction import filter_kernels
 from simplexspline.aero.reconstruction.kinematics import (
     NX, NZ, PSI_MEAS, EarthModel, measure, propagate,
 )
@@ -235,7 +239,20 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
         (n, 26, 26) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
         prediction (NaN where not measured), ``innov_var`` (n, 12) their predicted variances,
         ``iterations`` (n,) int, ``loglik`` (float) the log-likelihood of the measurements.
+
+    Notes
+    -----
+    With numba (:data:`~simplexspline.aero.reconstruction.filter_kernels.HAVE_NUMBA`) the
+    pass runs compiled (:func:`~simplexspline.aero.reconstruction.filter_kernels.filter_pass`,
+    the same results to round-off); where it meets a non-positive-definite innovation
+    covariance or a non-finite state, the Python path below reruns the pass and raises
+    its error.
     """
+    if filter_kernels.HAVE_NUMBA:
+        out = _run_filter_compiled(initial, u, z, dt, g, earth, noise, iteration, arm,
+                                   specific_force, gust_decay)
+        if out is not None:
+            return out
     n = u.shape[0]
     x_filt = np.empty((n, NX))
     P_filt = np.empty((n, NX, NX))
@@ -275,6 +292,34 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
             "loglik": float(loglik)}
 
 
+def _run_filter_compiled(initial: StateEstimate, u, z, dt, g, earth: EarthModel,
+                         noise: FilterNoise, iteration: IteratedUpdate, arm,
+                         specific_force: bool, gust_decay: float) -> dict | None:
+    """:func:`run_filter` by the compiled kernel; None where it stopped on numerical
+    trouble (the Python path then reproduces the reference's error)."""
+    n = u.shape[0]
+    out = {"x_filt": np.empty((n, NX)), "P_filt": np.empty((n, NX, NX)),
+           "x_pred": np.empty((n, NX)), "P_pred": np.empty((n, NX, NX)),
+           "F": np.empty((n, NX, NX)), "innov": np.full((n, NZ), np.nan),
+           "innov_var": np.full((n, NZ), np.nan), "iterations": np.zeros(n, dtype=np.int64)}
+    params = np.array([earth.rn, earth.rm, earth.tan_lat, *earth.wie, float(earth.rotation)])
+    arm = np.zeros((n, 6)) if arm is None else np.ascontiguousarray(arm, dtype=float)
+    status, _, loglik = filter_kernels.filter_pass(
+        np.array(initial.x, dtype=float), np.array(initial.P, dtype=float),
+        np.ascontiguousarray(u, dtype=float), np.ascontiguousarray(z, dtype=float),
+        float(dt), np.ascontiguousarray(g, dtype=float), params,
+        np.asarray(noise.measurement_std, dtype=float) ** 2,
+        np.asarray(noise.input_std, dtype=float) ** 2,
+        np.ascontiguousarray(noise.process_var, dtype=float), float(iteration.tol),
+        int(iteration.max_iter), arm, bool(specific_force), float(gust_decay),
+        out["x_filt"], out["P_filt"], out["x_pred"], out["P_pred"], out["F"], out["innov"],
+        out["innov_var"], out["iterations"])
+    if status != filter_kernels.OK:
+        return None
+    out["loglik"] = float(loglik)
+    return out
+
+
 def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
     """Rauch-Tung-Striebel fixed-interval smoother over a forward pass.
 
@@ -300,11 +345,19 @@ def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.n
     xs = xf.copy()
     if n < 2:
         return xs, (np.diagonal(Pf, axis1=1, axis2=2).copy() if covariance else None)
+    compiled = filter_kernels.HAVE_NUMBA
+    if compiled:
+        # the gains applied to the vectors, one solve per sample (smooth_pass)
+        filter_kernels.smooth_pass(*(np.ascontiguousarray(a, dtype=float)
+                                     for a in (xf, Pf, xp, Pp, F)), xs)
+        if not covariance:
+            return xs, None
     # C_k' = P_p[k+1]^-1 F_k P_f[k]   (P symmetric)
     Ct = np.linalg.solve(Pp[1:], F[:-1] @ Pf[:-1])
     C = np.transpose(Ct, (0, 2, 1))
-    for k in range(n - 2, -1, -1):
-        xs[k] = xf[k] + C[k] @ (xs[k + 1] - xp[k + 1])
+    if not compiled:
+        for k in range(n - 2, -1, -1):
+            xs[k] = xf[k] + C[k] @ (xs[k + 1] - xp[k + 1])
     var = None
     if covariance:
         var = np.empty((n, NX))

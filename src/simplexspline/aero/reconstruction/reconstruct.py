@@ -31,6 +31,7 @@ from simplexspline.aero.data.flight_data import (
     present_columns, sensor_geometry, validate_flight_data,
 )
 from simplexspline.aero.data.whiteness import whiteness_band
+from simplexspline.aero.reconstruction import filter_kernels
 from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
@@ -53,6 +54,7 @@ from simplexspline.aero.reconstruction.wind_triangle import (
 )
 from simplexspline.aero.variables import DEG
 from simplexspline.errors import FlightDataError, InputError
+from simplexspline.spline import kernels
 
 __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstruct_maneuver",
            "innovation_statistics", "significant_lags"]
@@ -314,8 +316,10 @@ def innovation_statistics(innov: np.ndarray, innov_var: np.ndarray, max_lag: int
         e = innov[ok, j]
         nu = e / np.sqrt(innov_var[ok, j])
         d = e - e.mean()
-        spec = np.fft.rfft(d, 2 * n)                  # autocorrelation by FFT (no BLAS)
-        acov = np.fft.irfft(spec.real ** 2 + spec.imag ** 2, 2 * n)[:max_lag + 1]
+        # autocovariances at lags 0..max_lag as direct sums (no BLAS): O(max_lag n), where
+        # an FFT of length 2n cost 30-100x more for the lengths that factor badly (2.4 ms
+        # at n = 4507 against 0.07 ms; 1.2 s of a 60-maneuver reconstruction's 10 s)
+        acov = np.array([(d[:n - lag] * d[lag:]).sum() for lag in range(max_lag + 1)])
         ac = acov[1:] / acov[0] if acov[0] > 0 else np.zeros(max_lag)
         out[name] = {"samples": n, "mean": float(nu.mean()), "std": float(nu.std()),
                      "rho1": float(ac[0]),
@@ -357,7 +361,11 @@ def reconstruct_maneuver(task: Mapping, settings: Mapping) -> dict:
     """
     man = int(task["maneuver"])
     try:
-        return _reconstruct(task, settings)
+        # small BLAS products only (26 x 26): OpenBLAS's threads gain nothing there and
+        # their spinning adds CPU time (a 12-maneuver reconstruction: 2.1-2.8 s of CPU,
+        # 1.6-1.8 s with one thread)
+        with kernels.one_blas_thread():
+            return _reconstruct(task, settings)
     except (np.linalg.LinAlgError, FloatingPointError, ValueError, ZeroDivisionError) as exc:
         return _reject(man, f"filter failed ({type(exc).__name__}: {exc})")
 
@@ -612,8 +620,14 @@ _LAG_CHANNELS = ("tas", "alpha", "beta", "phi", "theta")
 
 def _lag_estimates(xs: np.ndarray, z: np.ndarray, arm, dt: float, plan: Mapping) -> dict:
     """Per channel: (lag, sigma) [s] of the measurement against the smoothed states."""
-    hx = np.array([measure(xs[k], None, None if arm is None else arm[k])
-                   for k in range(xs.shape[0])])
+    if filter_kernels.HAVE_NUMBA:
+        hx = np.empty((xs.shape[0], len(MEASUREMENT_NAMES)))
+        filter_kernels.measure_series(
+            np.ascontiguousarray(xs), np.zeros((xs.shape[0], 6)) if arm is None
+            else np.ascontiguousarray(arm, dtype=float), hx)
+    else:
+        hx = np.array([measure(xs[k], None, None if arm is None else arm[k])
+                       for k in range(xs.shape[0])])
     out = {}
     for c in _LAG_CHANNELS:
         if c == "beta" and plan["beta_pseudo"]:
@@ -1033,7 +1047,34 @@ def _tasks(df, geometry: dict | None = None) -> list[dict]:
     return tasks
 
 
-def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
+class _Workers:
+    """The worker processes of one reconstruction, shared by its passes (the campaign
+    calibration, the maneuvers, the passes with lags undone): started on first use.
+
+    A pool per pass started and imported the package in every worker each time (about
+    1.5 s of CPU per worker, twice per pass).
+    """
+
+    def __init__(self, workers: int):
+        self.workers = workers
+        self._pool = None
+
+    def pool(self) -> ProcessPoolExecutor:
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                initializer=ignore_interrupts)
+        return self._pool
+
+    def __enter__(self) -> _Workers:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+
+
+def _run_all(tasks: list, settings: dict, workers: _Workers, progress: bool) -> list:
     from tqdm import tqdm  # optional dependency (the 'aero' extra)
 
     payload = [{k: v for k, v in t.items() if k != "rows"} for t in tasks]
@@ -1041,23 +1082,20 @@ def _run_all(tasks: list, settings: dict, workers: int, progress: bool) -> list:
     order = sorted(range(len(tasks)), key=lambda i: -len(tasks[i]["t"]))
     with tqdm(total=len(tasks), desc="reconstruct", unit="maneuver", disable=not progress,
               leave=False) as bar:
-        if workers == 1 or len(tasks) <= 1:
+        if workers.workers == 1 or len(tasks) <= 1:
             for i in order:
                 results[i] = reconstruct_maneuver(payload[i], settings)
                 bar.update(1)
             return results
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                 initializer=ignore_interrupts) as pool:
-            futures = {pool.submit(reconstruct_maneuver, payload[i], settings): i
-                       for i in order}
-            for fut in as_completed(futures):
-                results[futures[fut]] = fut.result()
-                bar.update(1)
+        pool = workers.pool()
+        futures = {pool.submit(reconstruct_maneuver, payload[i], settings): i for i in order}
+        for fut in as_completed(futures):
+            results[futures[fut]] = fut.result()
+            bar.update(1)
     return results
 
 
-def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: int,
+def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: _Workers,
                           progress: bool) -> dict:
     """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
 
@@ -1101,7 +1139,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
 _LAG_PASSES = 3
 
 
-def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: int,
+def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: _Workers,
             progress: bool) -> tuple[list, dict, list]:
     """The maneuvers' tasks, the campaign calibration and the per-maneuver results."""
     tasks = _tasks(df, geometry)
@@ -1111,6 +1149,22 @@ def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: int,
         for task in tasks:
             task["calibration"] = calibration
     return tasks, calibration, _run_all(tasks, settings.to_dict(), workers, progress)
+
+
+def _without_attrs(df):
+    """``df`` without its metadata (a shallow copy sharing the columns).
+
+    pandas deep-copies ``attrs`` into every column it hands out (``df[name]``): a
+    campaign's metadata are tens of kB of nested lists, growing with the maneuvers (0.4 ms
+    per copy with 12 maneuvers, 1.1 ms with 60), and a reconstruction looked up ~800
+    columns (1.8 s of a 12-maneuver reconstruction under cProfile). The metadata travel
+    separately (``meta``) and are set on the result.
+    """
+    import pandas as pd  # optional dependency (the 'aero' extra)
+
+    plain = pd.DataFrame(df, copy=False)
+    plain.attrs = {}
+    return plain
 
 
 def reconstruct(df, metadata: Mapping | None = None, *,
@@ -1154,6 +1208,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     if not isinstance(settings, ReconstructionSettings):
         raise InputError("settings must be a ReconstructionSettings")
     meta = dict(df.attrs if metadata is None else metadata)
+    df = _without_attrs(df)
     validate_flight_data(df, meta, nan="ignore")
     if workers is None:
         workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
@@ -1161,28 +1216,29 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     if int(workers) != workers or workers < 1:
         raise InputError(f"workers must be a positive integer, got {workers!r}")
     geometry = _geometry(meta)
-    tasks, calibration, results = _passes(df, geometry, settings, int(workers), progress)
-    lags_applied = {ch: float(v) for ch, v in geometry["lag_s"].items() if v}
-    t = df["t"].to_numpy(dtype=float)
-    dt = float(np.median(np.abs(np.diff(t)))) if t.size > 1 else None
-    for _ in range(_LAG_PASSES if settings.estimate_lags and settings.apply_estimated_lags
-                   else 0):
-        per_maneuver = [r["lags"] for r in results if r["ok"]]
-        found = significant_lags(per_maneuver, dt)
-        # undo the estimated lag on top of the one undone (a channel cannot lead)
-        total = {ch: lags_applied.get(ch, 0.0) + lag for ch, lag in found.items()}
-        total = {ch: v for ch, v in total.items() if 0.0 < v <= 2.0}
-        if not total:
-            break
-        # one channel per pass, the most significant: a late channel distorts the
-        # reconstruction and the others then look late too (a 0.08 s angle-of-attack lag
-        # made the airspeed look 0.11-0.17 s late in two of six single-maneuver tests)
-        first = max(total, key=lambda ch: np.median([abs(lags[ch][0]) / lags[ch][1]
-                                                     for lags in per_maneuver if ch in lags]))
-        total = {first: total[first]}
-        lags_applied.update(total)
-        geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
-        tasks, calibration, results = _passes(df, geometry, settings, int(workers), progress)
+    with _Workers(int(workers)) as pool:          # shared by all passes
+        tasks, calibration, results = _passes(df, geometry, settings, pool, progress)
+        lags_applied = {ch: float(v) for ch, v in geometry["lag_s"].items() if v}
+        t = df["t"].to_numpy(dtype=float)
+        dt = float(np.median(np.abs(np.diff(t)))) if t.size > 1 else None
+        for _ in range(_LAG_PASSES if settings.estimate_lags and settings.apply_estimated_lags
+                       else 0):
+            per_maneuver = [r["lags"] for r in results if r["ok"]]
+            found = significant_lags(per_maneuver, dt)
+            # undo the estimated lag on top of the one undone (a channel cannot lead)
+            total = {ch: lags_applied.get(ch, 0.0) + lag for ch, lag in found.items()}
+            total = {ch: v for ch, v in total.items() if 0.0 < v <= 2.0}
+            if not total:
+                break
+            # one channel per pass, the most significant: a late channel distorts the
+            # reconstruction and the others then look late too (a 0.08 s angle-of-attack lag
+            # made the airspeed look 0.11-0.17 s late in two of six single-maneuver tests)
+            first = max(total, key=lambda ch: np.median([abs(lags[ch][0]) / lags[ch][1]
+                                                         for lags in per_maneuver if ch in lags]))
+            total = {first: total[first]}
+            lags_applied.update(total)
+            geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
+            tasks, calibration, results = _passes(df, geometry, settings, pool, progress)
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
         m = task["maneuver"]
@@ -1210,7 +1266,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         out, meta, accelerations=settings.accelerations,
         half_window=settings.diff_half_window, degree=settings.diff_degree,
         thrust_model=thrust_model)
-    thrust_source = ("columns" if all(c in present_columns(df) for c in THRUST_COLUMNS)
+    have = set(present_columns(df))
+    thrust_source = ("columns" if all(c in have for c in THRUST_COLUMNS)
                      else "model" if thrust else "included")
     measured_acc = settings.accelerations == "measured" or (
         settings.accelerations == "auto" and all(c in df.columns
