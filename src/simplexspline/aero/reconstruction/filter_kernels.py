@@ -29,22 +29,18 @@ Kernels
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
+
+# numba's presence (and the SIMPLEXSPLINE_NO_NUMBA switch) is decided once, by the spline
+# layer's kernels
+from simplexspline.spline.kernels import HAVE_NUMBA
 
 __all__ = ["HAVE_NUMBA", "OK", "NOT_POSITIVE_DEFINITE", "NOT_FINITE", "filter_pass",
            "smooth_pass", "measure_series"]
 
-try:  # pragma: no cover - exercised where numba is installed
-    if os.environ.get("SIMPLEXSPLINE_NO_NUMBA"):
-        raise ImportError
+if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
     import numba
-
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover
-    numba = None
-    HAVE_NUMBA = False
 
 #: Status of :func:`filter_pass`: every sample processed.
 OK = 0
