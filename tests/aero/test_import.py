@@ -368,3 +368,62 @@ def test_yaw_rate_sign_from_turns_without_heading_or_gps():
     assert [c.channel for c in report.failed()] == ["r"]
     assert "channel 'r' looks sign-inverted: correlation -1.00 with g sin(phi)" in \
         report.failed()[0].message
+
+
+def _channel_files_as(tmp_path, write, shift=0.0):
+    """The test record's channel files rewritten by ``write(name, t, v) -> text``, and its
+    mapping pointing at them (and at its maneuver list, times shifted by ``shift`` [s])."""
+    for f in DATA.glob("*.txt"):
+        a = np.loadtxt(f, skiprows=1, ndmin=2) if f.stat().st_size and f.stem != "delta_e" \
+            else None
+        if a is None or a.shape[1] != 2:
+            shutil.copy(f, tmp_path / f.name)
+            continue
+        (tmp_path / f.name).write_text(write(f.stem, a[:, 0], a[:, 1]))
+    maneuvers = pd.read_csv(DATA / "maneuvers.csv")
+    maneuvers[["start", "end"]] += shift
+    maneuvers.to_csv(tmp_path / "maneuvers.csv", index=False)
+    text = MAPPING.read_text().replace('path = "."', f'path = "{tmp_path}"').replace(
+        'list = "maneuvers.csv"', f'list = "{tmp_path / "maneuvers.csv"}"')
+    (tmp_path / "mapping.toml").write_text(text)
+    return tmp_path / "mapping.toml"
+
+
+def test_header_lines_missing_words_and_blank_fields(tmp_path, imported):
+    """Real channel files: a name line, a unit line and a description before the numbers;
+    gaps written as NA, '-', or blank fields between commas. The samples given are read as
+    before; the blanks are missing samples, reported as dropped NaN."""
+    def write(name, t, v):
+        rows = [f"{ti:.2f},{float(vi)!r}" for ti, vi in zip(t, v)]
+        rows[5], rows[6], rows[7] = f"{t[5]:.2f},NA", f"{t[6]:.2f},-", f"{t[7]:.2f},,"
+        return f"{name}\nunit: see mapping\nrecorded by the FTI\n" + "\n".join(rows) + "\n"
+
+    result = import_record(_channel_files_as(tmp_path, write))
+    assert len(result.data) == len(imported.data)
+    for c in ("alpha", "q", "theta"):
+        assert np.allclose(result.data[c], imported.data[c], atol=1e-6), c
+
+
+@pytest.mark.parametrize("start", [1000.0, 86400.0 - 30.0])
+def test_clock_time_stamps_become_seconds_and_cross_midnight(tmp_path, imported, start):
+    """Time stamps as hh:mm:ss.ss, also through midnight: the same import as seconds."""
+    def write(name, t, v):
+        tt = (t - t[0] + start) % 86400.0
+        clock = [f"{int(x // 3600):02d}:{int(x % 3600 // 60):02d}:{x % 60:05.2f}" for x in tt]
+        return "time value\n" + "\n".join(f"{c} {float(vi)!r}" for c, vi in zip(clock, v)) + "\n"
+
+    result = import_record(_channel_files_as(tmp_path, write, shift=start - 1000.0))
+    assert len(result.data) == len(imported.data)
+    assert np.allclose(np.diff(result.data["t_record"]), np.diff(imported.data["t_record"]))
+    for c in ("alpha", "tas", "h"):
+        assert np.allclose(result.data[c], imported.data[c], atol=1e-6), c
+
+
+def test_a_channel_file_without_numbers_is_named(tmp_path):
+    from simplexspline.errors import FlightDataError
+
+    def write(name, t, v):
+        return "time value\n" + "\n".join(f"t{ti} v{vi}" for ti, vi in zip(t, v)) + "\n"
+
+    with pytest.raises(FlightDataError, match=r"no line of numbers in \d+ line\(s\)"):
+        import_record(_channel_files_as(tmp_path, write))

@@ -6,8 +6,10 @@ values in the source unit, NaN samples removed, nothing resampled or repaired: t
 
 * ``channels``: a directory with one text file per channel, named by a pattern such as
   ``{source}.txt``; each file holds two columns (time, value) or one (values at a stated
-  rate); whitespace, comma or semicolon separated; lines starting with ``#`` and a header
-  line are skipped. An empty file is a channel without data (a missing sensor).
+  rate); whitespace, comma or semicolon separated; lines starting with ``#`` and the
+  header lines before the first line of numbers are skipped; ``NA``, ``-``, blank fields
+  and the like are missing samples; clock times ``hh:mm:ss.s`` become seconds of the day.
+  An empty file is a channel without data (a missing sensor).
 * ``csv`` / ``parquet``: one table, one column per channel, a time column.
 * ``mat``: MATLAB files; v4-v7.2 through :func:`scipy.io.loadmat`, v7.3 (HDF5) through h5py.
   Channels are variables; ``struct.field`` (or ``group/dataset`` in v7.3) reaches inside.
@@ -16,6 +18,7 @@ values in the source unit, NaN samples removed, nothing resampled or repaired: t
 from __future__ import annotations
 
 import io
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -65,31 +68,82 @@ def _finite(source: str, t, v, timed: bool = True) -> RawChannel:
     return RawChannel(source, t[keep], v[keep], int((~keep).sum()), timed)
 
 
-def _numeric_lines(path: Path) -> np.ndarray:
-    text = path.read_text(encoding="utf-8", errors="replace")
-    text = text.replace(",", " ").replace(";", " ")
-    lines = text.splitlines()
-    skip = 0
-    for ln in lines:  # blank and comment lines, then one header line before the data
-        s = ln.strip()
-        if not s or s.startswith("#"):
-            skip += 1
-            continue
-        try:
-            float(s.split()[0])
-        except ValueError:
-            skip += 1
-        break
-    if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in lines[skip:]):
-        return np.empty((0, 1))
+#: Words that stand for a missing sample in a channel file (read as NaN, then dropped).
+MISSING_WORDS = ("NA", "N/A", "n/a", "NULL", "null", "None", "none", "-", "--")
+
+_CLOCK = re.compile(r"(?<![\w.:])(\d{1,2}):([0-5]\d):([0-5]\d(?:\.\d*)?)(?![\w.:])")
+_MISSING = re.compile(r"(?<![\w.+-])(?:" + "|".join(re.escape(w) for w in sorted(
+    MISSING_WORDS, key=len, reverse=True)) + r")(?![\w.])")
+_EMPTY_FIELD = re.compile(r"(?<=[,;])[ \t]*(?=[,;])")
+
+
+def _seconds_of_day(match: re.Match) -> str:
+    h, m, sec = match.groups()
+    return repr(int(h) * 3600 + int(m) * 60 + float(sec))
+
+
+def _is_data_line(line: str) -> bool:
+    token = line.replace(",", " ").replace(";", " ").split()[0]
+    if _CLOCK.fullmatch(token):
+        return True
     try:
-        a = np.loadtxt(io.StringIO(text), comments="#", skiprows=skip, ndmin=2)
-    except ValueError as exc:
-        raise FlightDataError(f"{path}: not a table of numbers ({exc}); a channel file holds "
-                              "one column (values) or two (time, value)") from None
+        float(token)
+    except ValueError:
+        return token in MISSING_WORDS
+    return True
+
+
+def _numeric_lines(path: Path) -> np.ndarray:
+    """The numbers of a channel file: (n, 1) values or (n, 2) time stamps and values.
+
+    Skipped: blank lines, ``#`` comments and the header lines before the first line of
+    numbers (a name, a unit, a description: as many as there are). Read as missing (NaN):
+    the words of :data:`MISSING_WORDS` and empty fields between separators (``1.0,,``).
+    Time stamps written as a clock time ``hh:mm:ss.s`` become seconds of the day (past
+    midnight: counted on, not restarted).
+    """
+    text = path.read_text(encoding="utf-8", errors="replace")
+    lines = text.splitlines()
+    first, skipped = None, 0
+    for i, ln in enumerate(lines):
+        if ln.strip() and not ln.lstrip().startswith("#"):
+            if _is_data_line(ln):
+                first = i
+                break
+            skipped += 1
+    if first is None:
+        if not skipped:
+            return np.empty((0, 1))
+        header = next(ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#"))
+        raise FlightDataError(
+            f"{path}: no line of numbers in {skipped} line(s) (first: "
+            f"{header.strip()[:60]!r}); a channel file holds one column (values) or "
+            "two (time, value), after any header lines")
+    body = "\n".join(lines[first:])
+    clock = _CLOCK.match(lines[first].replace(",", " ").replace(";", " ").split()[0])
+    if clock:
+        body = _CLOCK.sub(_seconds_of_day, body)
+    try:   # plain numbers: the fast path
+        a = np.loadtxt(io.StringIO(body.replace(",", " ").replace(";", " ")),
+                       comments="#", ndmin=2)
+    except ValueError:
+        a = None
+    if a is None:
+        if "," in body or ";" in body:
+            body = _EMPTY_FIELD.sub("nan", body)
+        body = _MISSING.sub("nan", body).replace(",", " ").replace(";", " ")
+        try:
+            a = np.loadtxt(io.StringIO(body), comments="#", ndmin=2)
+        except ValueError as exc:
+            raise FlightDataError(f"{path}: not a table of numbers after its header ({exc}); "
+                                  "a channel file holds one column (values) or two (time, "
+                                  "value); missing samples may be blank fields, NaN or one "
+                                  f"of {', '.join(MISSING_WORDS)}") from None
     if a.shape[1] not in (1, 2):
         raise FlightDataError(f"{path}: {a.shape[1]} columns; a channel file holds one "
                               "column (values at the stated rate) or two (time, value)")
+    if clock and a.shape[1] == 2:   # a flight through midnight: the clock starts again
+        a[1:, 0] += 86400.0 * np.cumsum(np.diff(a[:, 0]) < -43200.0)
     return a
 
 
