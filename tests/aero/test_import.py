@@ -427,3 +427,42 @@ def test_a_channel_file_without_numbers_is_named(tmp_path):
 
     with pytest.raises(FlightDataError, match=r"no line of numbers in \d+ line\(s\)"):
         import_record(_channel_files_as(tmp_path, write))
+
+
+def test_csv_with_semicolons_a_unit_row_gaps_and_clock_times(tmp_path, imported):
+    """A spreadsheet export: semicolons, a unit row under the header, '-' for a missing
+    sample, the time as hh:mm:ss.ss: the same import as the channel files."""
+    cols = {}
+    for f in DATA.glob("*.txt"):
+        if f.stem not in ("heading", "delta_e"):
+            a = np.loadtxt(f, skiprows=1)
+            cols["time"], cols[f.stem] = a[:, 0], a[:, 1].astype(object)
+    cols["delta_e"] = np.loadtxt(DATA / "delta_e.txt").astype(object)
+    cols["heading"] = np.full(cols["time"].size, "", dtype=object)
+    t = cols.pop("time")
+    cols["time"] = [f"{int(x // 3600):02d}:{int(x % 3600 // 60):02d}:{x % 60:05.2f}" for x in t]
+    first = next(k for k in cols if k not in ("time", "heading"))
+    cols[first] = cols[first].copy()
+    cols[first][7] = "-"
+    table = pd.DataFrame(cols)
+    units = pd.DataFrame([{k: "[unit]" for k in table.columns}])
+    pd.concat([units, table]).to_csv(tmp_path / "record.csv", sep=";", index=False)
+    text = MAPPING.read_text().replace('format = "channels"', 'format = "csv"').replace(
+        'path = "."', f'path = "{tmp_path / "record.csv"}"').replace(
+        'pattern = "{source}.txt"', 'time = "time"').replace(
+        'list = "maneuvers.csv"', f'list = "{DATA / "maneuvers.csv"}"')
+    (tmp_path / "mapping.toml").write_text(text)
+    result = import_record(tmp_path / "mapping.toml")
+    pd.testing.assert_frame_equal(result.data, imported.data, check_exact=False, rtol=1e-6,
+                                  atol=1e-9)
+
+
+def test_a_csv_column_with_words_is_named(tmp_path):
+    from simplexspline.aero.data.records import read_channels
+    from simplexspline.errors import FlightDataError
+
+    (tmp_path / "r.csv").write_text("time,alpha\n0,1.0\n0.1,stuck\n0.2,1.2\n")
+    with pytest.raises(FlightDataError, match=r"column 'alpha' is not numeric \(row 1: "
+                                              r"'stuck'\)"):
+        read_channels("csv", tmp_path / "r.csv", {"alpha": (None, "alpha", None)},
+                      time="time")

@@ -194,6 +194,29 @@ def _from_table(columns, path: Path, wanted: dict, time: str | None, time_scale:
     return out
 
 
+def _read_csv(path: Path):
+    """A CSV record as a DataFrame: the separator (comma, semicolon or tab) from the header
+    line, :data:`MISSING_WORDS` as missing, and the unit rows under the header (rows in
+    which no field is a number, at most 3) dropped."""
+    import pandas as pd  # optional dependency (the 'aero' extra)
+
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        head = next((ln for ln in fh if ln.strip()), "")
+    sep = ";" if head.count(";") > head.count(",") else \
+        "\t" if head.count("\t") > head.count(",") else ","
+    df = pd.read_csv(path, sep=sep, na_values=list(MISSING_WORDS), skipinitialspace=True)
+    df.columns = [str(c).strip() for c in df.columns]
+    units = 0
+    while units < min(3, len(df)):
+        row = df.iloc[units]
+        if row.notna().any() and pd.to_numeric(row, errors="coerce").isna().all() \
+                and not row.astype(str).str.fullmatch(_CLOCK.pattern).any():
+            units += 1
+        else:
+            break
+    return df.iloc[units:].reset_index(drop=True)
+
+
 def _mat_getter(path: Path):
     import h5py  # optional dependency (the 'aero' extra): MATLAB v7.3 files
     import scipy.io
@@ -288,15 +311,24 @@ def read_channels(fmt: str, path: Path, wanted: dict, *, pattern: str = "{source
         import pandas as pd  # optional dependency (the 'aero' extra)
 
         try:
-            df = pd.read_csv(path) if fmt == "csv" else pd.read_parquet(path)
+            df = _read_csv(path) if fmt == "csv" else pd.read_parquet(path)
         except Exception as exc:  # pandas/pyarrow raise many types for malformed files
             raise FlightDataError(f"cannot read {str(path)!r}: {exc}") from None
 
         def get(name):
+            col = df[name]
+            if not pd.api.types.is_numeric_dtype(col) and \
+                col.astype(str).str.fullmatch(_CLOCK.pattern).all():
+                t = np.array([float(_seconds_of_day(_CLOCK.fullmatch(x))) for x in col])
+                return t + 86400.0 * np.concatenate(([0], np.cumsum(np.diff(t) < -43200.0)))
             try:
-                return pd.to_numeric(df[name], errors="raise").to_numpy(dtype=float)
+                return pd.to_numeric(col, errors="raise").to_numpy(dtype=float)
             except (ValueError, TypeError):
-                raise FlightDataError(f"{path.name}: column {name!r} is not numeric") from None
+                bad = col[pd.to_numeric(col, errors="coerce").isna() & col.notna()]
+                raise FlightDataError(
+                    f"{path.name}: column {name!r} is not numeric (row {bad.index[0]}: "
+                    f"{bad.iloc[0]!r}); missing samples may be blank, NaN or one of "
+                    f"{', '.join(MISSING_WORDS)}") from None
 
         return _from_table(set(df.columns), path, wanted, time, time_scale, get)
     if fmt == "mat":
