@@ -332,6 +332,17 @@ def test_sign_checks_hold_with_sensor_noise(tmp_path):
     assert [c.channel for c in import_record(rec / "mapping.toml").sanity.failed()] == ["q"]
 
 
+def _csv_mapping(tmp_path, time_lines):
+    """The test mapping pointed at ``tmp_path/record.csv`` with the given [record] time
+    keys instead of the channel-file pattern."""
+    text = MAPPING.read_text().replace('format = "channels"', 'format = "csv"').replace(
+        'path = "."', f'path = "{tmp_path / "record.csv"}"').replace(
+        'pattern = "{source}.txt"', time_lines).replace(
+        'list = "maneuvers.csv"', f'list = "{DATA / "maneuvers.csv"}"')
+    (tmp_path / "mapping.toml").write_text(text)
+    return tmp_path / "mapping.toml"
+
+
 def test_time_stamps_in_milliseconds(tmp_path, imported):
     cols = {}
     for f in DATA.glob("*.txt"):
@@ -341,12 +352,7 @@ def test_time_stamps_in_milliseconds(tmp_path, imported):
     cols["delta_e"] = np.loadtxt(DATA / "delta_e.txt")
     cols["heading"] = np.full(cols["time_ms"].size, np.nan)
     pd.DataFrame(cols).to_csv(tmp_path / "record.csv", index=False)
-    text = MAPPING.read_text().replace('format = "channels"', 'format = "csv"').replace(
-        'path = "."', f'path = "{tmp_path / "record.csv"}"').replace(
-        'pattern = "{source}.txt"', 'time = "time_ms"\ntime_unit = "ms"').replace(
-        'list = "maneuvers.csv"', f'list = "{DATA / "maneuvers.csv"}"')
-    (tmp_path / "mapping.toml").write_text(text)
-    result = import_record(tmp_path / "mapping.toml")
+    result = import_record(_csv_mapping(tmp_path, 'time = "time_ms"\ntime_unit = "ms"'))
     pd.testing.assert_frame_equal(result.data, imported.data, check_exact=False, rtol=1e-9)
 
 
@@ -447,12 +453,7 @@ def test_csv_with_semicolons_a_unit_row_gaps_and_clock_times(tmp_path, imported)
     table = pd.DataFrame(cols)
     units = pd.DataFrame([{k: "[unit]" for k in table.columns}])
     pd.concat([units, table]).to_csv(tmp_path / "record.csv", sep=";", index=False)
-    text = MAPPING.read_text().replace('format = "channels"', 'format = "csv"').replace(
-        'path = "."', f'path = "{tmp_path / "record.csv"}"').replace(
-        'pattern = "{source}.txt"', 'time = "time"').replace(
-        'list = "maneuvers.csv"', f'list = "{DATA / "maneuvers.csv"}"')
-    (tmp_path / "mapping.toml").write_text(text)
-    result = import_record(tmp_path / "mapping.toml")
+    result = import_record(_csv_mapping(tmp_path, 'time = "time"'))
     pd.testing.assert_frame_equal(result.data, imported.data, check_exact=False, rtol=1e-6,
                                   atol=1e-9)
 
