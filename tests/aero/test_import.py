@@ -467,3 +467,41 @@ def test_a_csv_column_with_words_is_named(tmp_path):
                                               r"'stuck'\)"):
         read_channels("csv", tmp_path / "r.csv", {"alpha": (None, "alpha", None)},
                       time="time")
+
+
+def test_fuel_used_summed_over_engines(tmp_path, imported):
+    """A twin-engine record logs fuel used per engine, at their own time stamps: the
+    mapping lists both sources and the import sums them on the common time base."""
+    for f in DATA.iterdir():
+        if f.is_file():
+            shutil.copy(f, tmp_path / f.name)
+    a = np.loadtxt(DATA / "fuel_used.txt", skiprows=1)
+    share = 0.45
+    np.savetxt(tmp_path / "fu_left.txt", np.c_[a[:, 0], share * a[:, 1]], header="time fu",
+               comments="")
+    right = np.c_[a[:, 0] + 0.05, (1 - share) * np.interp(a[:, 0] + 0.05, a[:, 0], a[:, 1])]
+    np.savetxt(tmp_path / "fu_right.txt", right, header="time fu", comments="")
+    (tmp_path / "fuel_used.txt").unlink()
+    text = (tmp_path / "mapping.toml").read_text()
+    old = next(ln for ln in text.splitlines() if ln.startswith("fuel_used"))
+    (tmp_path / "mapping.toml").write_text(text.replace(
+        old, 'fuel_used = { source = ["fu_left", "fu_right"], unit = "lb" }'))
+    result = import_record(tmp_path / "mapping.toml")
+    assert np.allclose(result.data["mass"], imported.data["mass"], rtol=0, atol=0.05)
+    assert not np.allclose(result.data["mass"], result.data["mass"].iloc[0])
+
+
+@pytest.mark.parametrize("entry, message", [
+    ('alpha = { source = ["a1", "a2"], unit = "deg" }', "'alpha' cannot be a sum"),
+    ('fuel_used = { source = [], unit = "lb" }', "list of distinct channel names"),
+    ('fuel_used = { source = ["f", "f"], unit = "lb" }', "list of distinct channel names"),
+])
+def test_a_sum_of_sources_is_refused_where_it_makes_no_sense(tmp_path, entry, message):
+    from simplexspline.aero.data.mapping import MappingError, read_mapping
+
+    text = MAPPING.read_text()
+    key = entry.split(" ")[0]
+    old = next(ln for ln in text.splitlines() if ln.startswith(key + " "))
+    (tmp_path / "mapping.toml").write_text(text.replace(old, entry))
+    with pytest.raises(MappingError, match=message):
+        read_mapping(tmp_path / "mapping.toml")

@@ -11,7 +11,8 @@ A TOML file (``docs/import.md`` documents every key) with four tables:
     radii of gyration or an inertia table over mass), every value with its unit.
 ``[channels]``
     One entry per schema column (or auxiliary input such as ``cas``, ``temperature``,
-    ``fuel_used``, ``lat``, ``lon``, ``wow``): ``source`` (file stem or column name),
+    ``fuel_used``, ``lat``, ``lon``, ``wow``): ``source`` (file stem or column name; for
+    fuel used and thrust a list of them, summed: one per engine),
     ``unit`` (a pint unit string), optional ``sign`` (+1/-1), ``offset`` (in the source unit,
     subtracted before the conversion), ``rate_hz`` or ``time`` (the channel's own time base).
 ``[segments]`` and ``[metadata]``
@@ -36,7 +37,7 @@ from simplexspline.aero.data.flight_data import FLIGHT_DATA_COLUMNS
 from simplexspline.aero.data.units import UnitError, conversion, quantity
 from simplexspline.errors import InputError
 
-__all__ = ["AUXILIARY_CHANNELS", "FORMATS", "SEGMENT_METHODS", "ChannelMap", "AircraftSpec",
+__all__ = ["AUXILIARY_CHANNELS", "FORMATS", "SEGMENT_METHODS", "SUMMABLE", "ChannelMap", "AircraftSpec",
            "RecordSpec", "SegmentSpec", "ImportMapping", "read_mapping", "MappingError"]
 
 
@@ -60,6 +61,9 @@ AUXILIARY_CHANNELS: dict[str, tuple[str, str]] = {
 #: Schema columns a mapping may fill from a channel (labels and truth columns excluded).
 _TARGETS = {n: s.unit for n, s in FLIGHT_DATA_COLUMNS.items()
             if s.kind == "float" and not n.startswith("true_") and n != "t"}
+#: Columns that may be the sum of several channels (one per engine).
+SUMMABLE = ("fuel_used", "thrust_x", "thrust_y", "thrust_z", "thrust_l", "thrust_m",
+            "thrust_n")
 FORMATS = ("channels", "csv", "mat", "parquet")
 SEGMENT_METHODS = ("auto", "list", "excitation", "airborne")
 
@@ -73,7 +77,10 @@ class ChannelMap:
     target : str
         Schema column or auxiliary input.
     source : str
-        Channel name in the record (file stem or column).
+        Channel name in the record (file stem or column); ``sources`` when several.
+    sources : tuple of str
+        The record's channels whose converted values are summed into the target (one
+        per engine for fuel used, for example); ``(source,)`` for a single channel.
     unit : str
         Pint unit string of the source.
     sign : float
@@ -96,6 +103,11 @@ class ChannelMap:
     rate_hz: float | None = None
     time: str | None = None
     line: int = 0
+    sources: tuple = ()
+
+    def __post_init__(self):
+        if not self.sources:
+            object.__setattr__(self, "sources", (self.source,))
 
     @property
     def si_unit(self) -> str:
@@ -410,7 +422,20 @@ def _channel(path: Path, text: str, target: str, entry) -> ChannelMap:
                            "{ source = ..., unit = ... }")
     r = _Reader(path, text, f"channels.{target}", entry, line=line)
     r.unknown({"source", "unit", "sign", "offset", "rate_hz", "time"})
-    source = r.str("source", target)
+    many = entry.get("source")
+    if isinstance(many, list):
+        if not many or not all(isinstance(x, str) and x for x in many) \
+                or len(set(many)) != len(many):
+            r.fail("source", f"must be a channel name or a list of distinct channel names "
+                   f"(summed, e.g. fuel used per engine), got {many!r}")
+        if target not in SUMMABLE:
+            r.fail("source", f"{target!r} cannot be a sum of channels; a list of sources "
+                   f"(summed, one per engine) is for {', '.join(SUMMABLE)}")
+        sources = tuple(many)
+        source = " + ".join(sources)
+    else:
+        source = r.str("source", target)
+        sources = (source,)
     unit = r.str("unit")
     si = AUXILIARY_CHANNELS[target][0] if target in AUXILIARY_CHANNELS else _TARGETS[target]
     if unit is None:
@@ -425,7 +450,8 @@ def _channel(path: Path, text: str, target: str, entry) -> ChannelMap:
         r.fail("sign", f"must be 1 or -1, got {entry['sign']!r}")
     return ChannelMap(target=target, source=source, unit=unit, sign=sign,
                       offset=r.number("offset", 0.0, positive=False),
-                      rate_hz=r.number("rate_hz"), time=r.str("time"), line=line)
+                      rate_hz=r.number("rate_hz"), time=r.str("time"), line=line,
+                      sources=sources)
 
 
 def _segments(r: _Reader, base: Path) -> SegmentSpec:

@@ -247,28 +247,36 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
     time_scale = float(conversion(rec.time_unit, "s")(1.0))
     wanted = {}
     for ch in m.channels.values():
-        wanted[ch.source] = (ch.rate_hz or rec.rate_hz, m.where(ch.target), ch.time)
+        for source in ch.sources:
+            wanted[source] = (ch.rate_hz or rec.rate_hz, m.where(ch.target), ch.time)
     raw = read_channels(rec.format, rec.path, wanted, pattern=rec.pattern, time=rec.time,
                         time_scale=time_scale)
     stamps = [float(r.t[0]) for r in raw.values() if r.timed and r.t.size]
     origin = min(stamps) if stamps else 0.0  # where channels without time stamps start
     clean, empty, issues = {}, [], []
     for target, ch in m.channels.items():
-        r = raw[ch.source]
-        if r.values.size == 0:
-            empty.append(target)
+        if any(raw[source].values.size == 0 for source in ch.sources):
+            empty.append(target)      # a sum with a term missing is missing
             continue
-        try:
-            values = ch.convert(r.values)
-        except ValueError as exc:
-            raise InputError(f"{m.where(target)}: cannot convert {ch.source!r}: {exc}") from None
-        t = r.t if r.timed else origin + r.t
-        c = clean_time_stamps(target, t, values, gap_factor=rec.gap_factor)
-        issues += c.issues
-        clean[target] = c
-    grid = common_grid(clean.values(), rec.output_rate_hz)
+        parts = []
+        for source in ch.sources:
+            r = raw[source]
+            try:
+                values = ch.convert(r.values)
+            except ValueError as exc:
+                raise InputError(f"{m.where(target)}: cannot convert {source!r}: "
+                                 f"{exc}") from None
+            t = r.t if r.timed else origin + r.t
+            name = target if len(ch.sources) == 1 else f"{target} ({source})"
+            c = clean_time_stamps(name, t, values, gap_factor=rec.gap_factor)
+            issues += c.issues
+            parts.append(c)
+        clean[target] = parts
+    grid = common_grid([c for parts in clean.values() for c in parts], rec.output_rate_hz)
     dt = float(grid[1] - grid[0]) if grid.size > 1 else 1.0
-    cols = {k: resample(c, grid, wrap=k in _WRAPPING) for k, c in clean.items()}
+    # several sources (one per engine) are summed on the common time base
+    cols = {k: sum(resample(c, grid, wrap=k in _WRAPPING) for c in parts)
+            for k, parts in clean.items()}
     found = [k for k in m.channels if k in cols]
     derived = {}
     _derive(cols, m, derived)
