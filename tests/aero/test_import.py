@@ -92,6 +92,13 @@ def test_maneuvers_from_the_list_keep_their_types_and_drop_the_ground(imported, 
     assert imported.ground_rule == "weight-on-wheels channel"
 
 
+def test_the_gps_latitude_goes_into_the_metadata(imported):
+    """For the reconstruction's Earth model (gravity, Earth rate)."""
+    lat = np.loadtxt(DATA / "gps_lat.txt", skiprows=1)[:, 1].mean()     # deg
+    assert imported.metadata["latitude_deg"] == pytest.approx(lat, abs=0.01)
+    assert "latitude_deg" in imported.derived
+
+
 def test_gps_positions_from_latitude_and_longitude(imported, truth):
     d = _joined(imported, truth)
     for m, g in d.groupby("maneuver"):

@@ -274,6 +274,31 @@ def test_without_gps_and_beta_vane_the_lateral_accelerometer_bias_is_held(noisy_
     assert "ay: not estimated, unobservable without GPS and sideslip vane" in rec.summary()
 
 
+def test_latitude_from_the_data_else_assumed_and_said(noisy_campaign, noisy_reconstruction):
+    """The Earth model's latitude is the data's (the simulator writes where it flies), a
+    given setting wins, and without either the summary says what was assumed."""
+    from simplexspline.aero.reconstruction.reconstruct import ASSUMED_LATITUDE_DEG
+    from simplexspline.sim.fdm import LATITUDE_DEG
+
+    assert noisy_campaign.attrs["latitude_deg"] == LATITUDE_DEG
+    assert noisy_reconstruction.latitude == {"deg": LATITUDE_DEG,
+                                             "source": "metadata latitude_deg"}
+    assert f"latitude {LATITUDE_DEG:.2f} deg (metadata latitude_deg)" in \
+        noisy_reconstruction.summary()
+    one = noisy_campaign[noisy_campaign["maneuver"] == 3]
+    meta = {k: v for k, v in noisy_campaign.attrs.items() if k != "latitude_deg"}
+    rec = reconstruct(one, meta)
+    assert rec.latitude["deg"] == ASSUMED_LATITUDE_DEG
+    assert "assumed (no latitude in the data" in rec.summary()
+    assert rec.data.attrs["reconstruction"]["settings"]["latitude_deg"] == ASSUMED_LATITUDE_DEG
+    rec = reconstruct(one, settings=ReconstructionSettings(latitude_deg=-33.9))
+    assert rec.latitude == {"deg": -33.9, "source": "settings"}
+    with pytest.raises(InputError, match="latitude_deg must be a latitude"):
+        ReconstructionSettings(latitude_deg=152.0)
+    with pytest.raises(FlightDataError, match="metadata latitude_deg must be a latitude"):
+        reconstruct(one, {**meta, "latitude_deg": "52N"})
+
+
 def test_no_airspeed_flag_with_gps(noisy_reconstruction):
     assert "all" not in noisy_reconstruction.sensors()["flags"]
 

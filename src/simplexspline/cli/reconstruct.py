@@ -37,8 +37,9 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    "present, else smoothed differentiation of the reconstructed rates)")
     p.add_argument("--no-smoother", action="store_true",
                    help="use the forward filter only (no RTS backward pass)")
-    p.add_argument("--latitude", type=float, default=52.0,
-                   help="geodetic latitude of the flights [deg] (52, the simulator's)")
+    p.add_argument("--latitude", type=float, default=None,
+                   help="geodetic latitude of the flights [deg] (default: the data's "
+                        "metadata latitude_deg, else 45, said in the summary)")
     p.add_argument("--min-duration", type=arguments.positive, default=2.0,
                    help="reject maneuvers shorter than this [s] (2.0)")
     p.add_argument("--gusts", type=_gusts, default="auto",

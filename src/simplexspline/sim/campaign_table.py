@@ -12,6 +12,7 @@ from simplexspline.aero.data.flight_data import FLIGHT_DATA_COLUMNS, SCHEMA_VERS
 from simplexspline.errors import SimulationError
 from simplexspline.sim.aircraft import SURFACE_SIGN_CONVENTIONS
 from simplexspline.sim.maneuvers import MANEUVER_TYPES
+from simplexspline.sim.fdm import LATITUDE_DEG
 from simplexspline.sim.flight import DT
 
 __all__ = ["assemble", "envelope_coverage", "COVERAGE_CHANNELS"]
@@ -63,6 +64,7 @@ def assemble(results: list, conditions: list, st: dict, campaign):
         "aircraft": profile.name,
         "S": float(S), "b": float(b), "cbar": float(cbar),
         "sample_rate_hz": 1.0 / DT,
+        "latitude_deg": LATITUDE_DEG,
         "units": {c: FLIGHT_DATA_COLUMNS[c].unit for c in cols
                   if c in FLIGHT_DATA_COLUMNS and FLIGHT_DATA_COLUMNS[c].unit},
         "sign_conventions": {

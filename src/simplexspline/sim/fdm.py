@@ -18,7 +18,7 @@ from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile
 from simplexspline.sim.units import FT, KT
 
-__all__ = ["load_jsbsim", "quiet_scratch", "create_fdm", "trim_fdm", "set_wind", "RECORD",
+__all__ = ["LATITUDE_DEG", "LONGITUDE_DEG", "load_jsbsim", "quiet_scratch", "create_fdm", "trim_fdm", "set_wind", "RECORD",
            "Recorder"]
 
 #: Properties read after every ``run()`` (one 100 Hz sample), in JSBSim units. After
@@ -51,6 +51,10 @@ RECORD: tuple[str, ...] = (
 #: (outputs stay bit-identical; a step gets about 40 % cheaper): ground reactions are zero
 #: airborne with the gear up (kept data stay above ``Envelope.h_min``), and there is no
 #: socket input, no output, no buoyancy and no external force.
+#: Where the simulated flights start (geodetic latitude, longitude [deg]); written into the
+#: metadata as ``latitude_deg`` for the reconstruction's Earth model.
+LATITUDE_DEG, LONGITUDE_DEG = 52.0, 4.4
+
 IDLE_MODELS = ("FGGroundReactions", "FGInput", "FGOutput", "FGBuoyantForces",
                "FGExternalReactions")
 #: Index of each recorded property.
@@ -159,8 +163,8 @@ def trim_fdm(profile: AircraftProfile, h_m: float, tas_mps: float, psi_rad: floa
     fdm["ic/vt-kts"] = tas_mps / KT
     fdm["ic/gamma-deg"] = 0.0
     fdm["ic/psi-true-deg"] = math.degrees(psi_rad) % 360.0
-    fdm["ic/lat-geod-deg"] = 52.0
-    fdm["ic/long-gc-deg"] = 4.4
+    fdm["ic/lat-geod-deg"] = LATITUDE_DEG
+    fdm["ic/long-gc-deg"] = LONGITUDE_DEG
     fdm.run_ic()
     fdm["propulsion/set-running"] = -1
     fdm["gear/gear-cmd-norm"] = 0.0

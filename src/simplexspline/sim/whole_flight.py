@@ -27,7 +27,7 @@ from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim import units as u
 from simplexspline.sim.aircraft import SURFACE_SIGN_CONVENTIONS, AircraftProfile, get_aircraft
 from simplexspline.sim.campaign import FlightProtocol, isa_speed_of_sound, split_counts
-from simplexspline.sim.fdm import quiet_scratch, set_wind, trim_fdm
+from simplexspline.sim.fdm import LATITUDE_DEG, quiet_scratch, set_wind, trim_fdm
 from simplexspline.sim.flight import DT, FlightLoop, schema_columns
 from simplexspline.sim.maneuvers import AXES, LEAD_S, design_maneuver, excitation
 from simplexspline.sim.pilot import Pilot, Turn
@@ -315,6 +315,7 @@ class WholeFlight:
         meta = {
             "schema": SCHEMA_VERSION, "aircraft": self.profile.name,
             "S": float(S), "b": float(b), "cbar": float(cbar), "sample_rate_hz": 1.0 / DT,
+            "latitude_deg": LATITUDE_DEG,
             "units": {c: FLIGHT_DATA_COLUMNS[c].unit for c in df.columns
                       if c in FLIGHT_DATA_COLUMNS and FLIGHT_DATA_COLUMNS[c].unit},
             "sign_conventions": dict(SURFACE_SIGN_CONVENTIONS),

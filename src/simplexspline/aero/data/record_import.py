@@ -358,6 +358,11 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
         time_issues=issues, segment_notes=notes, ground_rule=rule, rate_hz=round(1.0 / dt, 6),
         record_duration_s=float(grid[-1] - grid[0]), airborne_s=float(airborne.sum() * dt))
     meta = dict(m.metadata)
+    if "lat" in cols and "latitude_deg" not in meta:   # for the reconstruction's Earth model
+        lat = cols["lat"][rows]
+        if np.isfinite(lat).any():
+            meta["latitude_deg"] = round(float(np.degrees(np.nanmedian(lat))), 4)
+            derived["latitude_deg"] = "metadata: the median GPS latitude of the maneuvers"
     meta.update({"schema": SCHEMA_VERSION, "aircraft": m.aircraft.name, "S": m.aircraft.S,
                  "b": m.aircraft.b, "cbar": m.aircraft.cbar,
                  "source": {"mapping": str(Path(m.path).resolve()), "record": str(rec.path)},

@@ -20,7 +20,7 @@ import multiprocessing
 import os
 from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -100,6 +100,31 @@ def _default_measurement_noise() -> dict:
             "phi": 0.05 * DEG, "theta": 0.05 * DEG, "psi": 0.1 * DEG}
 
 
+#: Latitude [deg] assumed when neither the settings nor the data give one: where standard
+#: gravity is defined. Gravity differs by at most 0.026 m/s^2 to the poles or the equator
+#: (the accelerometer biases take it), the Earth rate's vertical part by its sine.
+ASSUMED_LATITUDE_DEG = 45.0
+
+
+def _valid_latitude(value) -> bool:
+    return (not isinstance(value, bool) and isinstance(value, (int, float))
+            and math.isfinite(value) and -90.0 <= value <= 90.0)
+
+
+def _latitude(settings, meta: Mapping) -> tuple:
+    """The flights' latitude [deg] and where it came from (settings, metadata, assumed)."""
+    if settings.latitude_deg is not None:
+        return float(settings.latitude_deg), "settings"
+    given = meta.get("latitude_deg")
+    if given is not None:
+        if not _valid_latitude(given):
+            raise FlightDataError(f"metadata latitude_deg must be a latitude in degrees "
+                                  f"(-90 .. 90), got {given!r}")
+        return float(given), "metadata latitude_deg"
+    return ASSUMED_LATITUDE_DEG, ("assumed (no latitude in the data: give metadata "
+                                  "latitude_deg, a GPS latitude channel, or the setting)")
+
+
 def _default_prior() -> dict:
     return {"position": 5.0, "velocity": 1.0, "attitude": 0.01, "accel_bias": 0.1,
             "gyro_bias": 2e-3, "vane_bias": 0.02, "tas_bias": 2.0, "wind": 10.0,
@@ -142,8 +167,10 @@ class ReconstructionSettings:
         Maximum iterations (gain computations) per measurement update.
     smoother : bool
         Run the RTS backward smoother (recommended); otherwise the filtered states are used.
-    latitude_deg : float
-        Geodetic latitude of the flights [deg] (gravity, Earth rate); the simulator's 52.
+    latitude_deg : float or None
+        Geodetic latitude of the flights [deg] (gravity, Earth rate). None (default): the
+        data's metadata ``latitude_deg`` (written by the importer from the GPS latitude and
+        by the simulator), else :data:`ASSUMED_LATITUDE_DEG`, said in the summary.
     earth_rotation : bool
         Model Earth rate, Coriolis and transport rate.
     min_duration_s : float
@@ -214,7 +241,7 @@ class ReconstructionSettings:
     tol: float = 0.1
     max_iter: int = 10
     smoother: bool = True
-    latitude_deg: float = 52.0
+    latitude_deg: float | None = None
     earth_rotation: bool = True
     min_duration_s: float = 2.0
     accelerations: str = "auto"
@@ -278,6 +305,9 @@ class ReconstructionSettings:
             raise InputError("rate_integration must be 'auto', 'euler' or 'trapezoid'")
         if self.air_data_calibration not in ("campaign", "maneuver"):
             raise InputError("air_data_calibration must be 'campaign' or 'maneuver'")
+        if self.latitude_deg is not None and not _valid_latitude(self.latitude_deg):
+            raise InputError(f"latitude_deg must be a latitude in degrees (-90 .. 90) or "
+                             f"None (from the data), got {self.latitude_deg!r}")
         if self.accelerations not in ("auto", "measured", "differentiate"):
             raise InputError("accelerations must be 'auto', 'measured' or 'differentiate'")
 
@@ -859,6 +889,9 @@ class Reconstruction:
         The point ``Cl, Cm, Cn`` are about: ``point_m`` (x, y, z [m] in the frame of the
         c.g. columns; None: the c.g.) and ``source``
         (:func:`~simplexspline.aero.data.coefficients.aerodynamic_coefficients`).
+    latitude : dict
+        The latitude the Earth model used: ``deg`` and ``source`` (settings, metadata
+        ``latitude_deg`` or assumed).
     """
 
     data: object
@@ -872,6 +905,8 @@ class Reconstruction:
     lags_applied: dict = field(default_factory=dict)
     moment_reference: dict = field(default_factory=lambda: {"point_m": None,
                                                             "source": "the c.g."})
+    latitude: dict = field(default_factory=lambda: {"deg": ASSUMED_LATITUDE_DEG,
+                                                    "source": "assumed"})
 
     def sensors(self) -> dict:
         """What the reconstruction gave for each missing or estimated quantity.
@@ -996,6 +1031,8 @@ class Reconstruction:
                                                 "included": "INCLUDED (no thrust_* columns), "
                                                             "as in the paper"}[self.thrust]
                      + f"; angular accelerations {self.accelerations}")
+        lat = self.latitude
+        lines.append(f"Earth model at latitude {lat['deg']:.2f} deg ({lat['source']})")
         ref = self.moment_reference
         lines.append("moments about " + (
             ref["source"] if ref.get("point_m") is None else
@@ -1216,6 +1253,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     if int(workers) != workers or workers < 1:
         raise InputError(f"workers must be a positive integer, got {workers!r}")
     geometry = _geometry(meta)
+    latitude, latitude_source = _latitude(settings, meta)
+    settings = replace(settings, latitude_deg=latitude)
     with _Workers(int(workers)) as pool:          # shared by all passes
         tasks, calibration, results = _passes(df, geometry, settings, pool, progress)
         lags_applied = {ch: float(v) for ch, v in geometry["lag_s"].items() if v}
@@ -1280,7 +1319,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                          accelerations="measured" if measured_acc else "differentiated",
                          unused_channels=unused, settings=settings, thrust=thrust_source,
                          lags_applied=lags_applied,
-                         moment_reference=dict(coef.attrs["moment_reference"]))
+                         moment_reference=dict(coef.attrs["moment_reference"]),
+                         latitude={"deg": latitude, "source": latitude_source})
     sensors = rec.sensors()
     meta["reconstruction"] = jsonable({
         "method": "iterated extended Kalman filter + RTS smoother (docs/reconstruction.md)",
@@ -1291,6 +1331,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         "sensor_geometry_given": geometry["given"],
         "lags_applied_s": lags_applied,
         "moment_reference": rec.moment_reference,
+        "latitude": rec.latitude,
         "air_data_calibration": calibration,
         "maneuvers": {m: {k: r[k] for k in ("biases", "iterations", "innovations", "skipped",
                                             "held", "weak", "observability", "lags", "gusts")}
