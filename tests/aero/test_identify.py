@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import re
 import warnings
 from dataclasses import replace
 
@@ -318,3 +319,25 @@ def test_coefficients_the_data_cannot_give_are_left_out_and_said(table):
         identify(no_forces, settings=IdentificationSettings(
             coefficients=("CX", "Cm"), structures={"CX": Structure("CX", ("alpha",))},
             select=False))
+
+
+def test_a_validation_outside_the_identification_data_is_said(table):
+    """Two maneuvers at angles of attack that do not overlap: whichever is held out lies
+    outside the other's coverage; the scores are still given, with a warning that they
+    measure extrapolation and which maneuver leaves the coverage."""
+    first, second = sorted(table["maneuver"].unique())[:2]
+    two = table[table["maneuver"].isin([first, second])].copy()
+    shift = two["alpha"].max() - two["alpha"].min() + 0.2
+    two.loc[two["maneuver"] == second, "alpha"] += shift
+    settings = IdentificationSettings(coefficients=("CZ",), select=False,
+                                      validation_fraction=0.5,
+                                      structures={"CZ": Structure("CZ", ("alpha",))})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = identify(two, settings=settings)
+    messages = [str(w.message) for w in caught if issubclass(w.category, ThinDataWarning)]
+    assert any(re.search(r"CZ: only 0\.0 % of the validation samples lie inside the "
+                         r"identification data's coverage \(maneuvers \[\d+\] leave it\), "
+                         r"scored on all of them", m) for m in messages), messages
+    assert res.results["CZ"].validation["coverage"] == 0.0
+    assert any("measure extrapolation" in w for w in res.warnings)

@@ -653,6 +653,26 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
     return {c: results[c] for c in coefs}, notes
 
 
+#: Below this share of validation samples inside the identification data's coverage, the
+#: validation scores mostly measure extrapolation, and identify says so.
+MIN_VALIDATION_COVERAGE = 0.5
+
+
+def _extrapolation_note(c: str, v_scores: Mapping, maneuvers: np.ndarray,
+                        covered: np.ndarray) -> str:
+    """The warning for a validation that lies (mostly) outside the identification data."""
+    share = v_scores["coverage"]
+    outside = sorted({(int(m) if np.issubdtype(type(m), np.integer) else str(m))
+                      for m in np.unique(maneuvers[~covered])})
+    scored = ("scored on all of them (nothing else to score)" if share == 0 else
+              "scored on the covered part; the rest under 'outside' in summary.json")
+    return (f"{c}: only {100 * share:.1f} % of the validation samples lie inside the "
+            f"identification data's coverage (maneuvers {outside[:10]}"
+            f"{' ...' if len(outside) > 10 else ''} leave it), {scored}: the validation "
+            "figures measure extrapolation, not the model; fly more maneuvers at these "
+            "conditions or hold out fewer (validation_fraction)")
+
+
 def _record_provenance(results: Mapping, ident, meta: dict,
                        settings: IdentificationSettings, prov: dict) -> None:
     """Step 4: what each model file keeps of the run (settings, medians, geometry,
@@ -736,6 +756,10 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         v_scores["r2"], None if types is None else types[inside])
     if excited["message"]:
         notes.append(excited["message"])
+    if v_scores["coverage"] < MIN_VALIDATION_COVERAGE:
+        msg = _extrapolation_note(c, v_scores, valid["maneuver"].to_numpy(), covered)
+        notes.append(msg)
+        warn.append(msg)
     inputs = [v for v in best.inputs if v in columns]
     separation = collinearity(columns, inputs, y - pred_i,
                               v_scores.get("autocorrelation"))
