@@ -662,8 +662,8 @@ def _extrapolation_note(c: str, v_scores: Mapping, maneuvers: np.ndarray,
                         covered: np.ndarray) -> str:
     """The warning for a validation that lies (mostly) outside the identification data."""
     share = v_scores["coverage"]
-    outside = sorted({(int(m) if np.issubdtype(type(m), np.integer) else str(m))
-                      for m in np.unique(maneuvers[~covered])})
+    outside = [int(m) if np.issubdtype(type(m), np.integer) else str(m)
+               for m in np.unique(maneuvers[~covered])]
     scored = ("scored on all of them (nothing else to score)" if share == 0 else
               "scored on the covered part; the rest under 'outside' in summary.json")
     return (f"{c}: only {100 * share:.1f} % of the validation samples lie inside the "

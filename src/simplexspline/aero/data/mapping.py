@@ -37,8 +37,9 @@ from simplexspline.aero.data.flight_data import FLIGHT_DATA_COLUMNS
 from simplexspline.aero.data.units import UnitError, conversion, quantity
 from simplexspline.errors import InputError
 
-__all__ = ["AUXILIARY_CHANNELS", "FORMATS", "SEGMENT_METHODS", "SUMMABLE", "ChannelMap", "AircraftSpec",
-           "RecordSpec", "SegmentSpec", "ImportMapping", "read_mapping", "MappingError"]
+__all__ = ["AUXILIARY_CHANNELS", "FORMATS", "SEGMENT_METHODS", "SUMMABLE", "ChannelMap",
+           "AircraftSpec", "RecordSpec", "SegmentSpec", "ImportMapping", "read_mapping",
+           "MappingError"]
 
 
 class MappingError(InputError):

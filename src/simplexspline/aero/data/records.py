@@ -77,9 +77,16 @@ _MISSING = re.compile(r"(?<![\w.+-])(?:" + "|".join(re.escape(w) for w in sorted
 _EMPTY_FIELD = re.compile(r"(?<=[,;])[ \t]*(?=[,;])")
 
 
-def _seconds_of_day(match: re.Match) -> str:
+def _clock_seconds(match: re.Match) -> float:
+    """Seconds of the day of a matched ``hh:mm:ss.s``."""
     h, m, sec = match.groups()
-    return repr(int(h) * 3600 + int(m) * 60 + float(sec))
+    return int(h) * 3600 + int(m) * 60 + float(sec)
+
+
+def _through_midnight(t: np.ndarray) -> np.ndarray:
+    """Clock seconds counted on past midnight (a step back of over 12 h adds a day)."""
+    t = np.asarray(t, dtype=float)
+    return t + 86400.0 * np.concatenate(([0.0], np.cumsum(np.diff(t) < -43200.0)))
 
 
 def _is_data_line(line: str) -> bool:
@@ -122,7 +129,7 @@ def _numeric_lines(path: Path) -> np.ndarray:
     body = "\n".join(lines[first:])
     clock = _CLOCK.match(lines[first].replace(",", " ").replace(";", " ").split()[0])
     if clock:
-        body = _CLOCK.sub(_seconds_of_day, body)
+        body = _CLOCK.sub(lambda match: repr(_clock_seconds(match)), body)
     try:   # plain numbers: the fast path
         a = np.loadtxt(io.StringIO(body.replace(",", " ").replace(";", " ")),
                        comments="#", ndmin=2)
@@ -143,7 +150,7 @@ def _numeric_lines(path: Path) -> np.ndarray:
         raise FlightDataError(f"{path}: {a.shape[1]} columns; a channel file holds one "
                               "column (values at the stated rate) or two (time, value)")
     if clock and a.shape[1] == 2:   # a flight through midnight: the clock starts again
-        a[1:, 0] += 86400.0 * np.cumsum(np.diff(a[:, 0]) < -43200.0)
+        a[:, 0] = _through_midnight(a[:, 0])
     return a
 
 
@@ -318,9 +325,8 @@ def read_channels(fmt: str, path: Path, wanted: dict, *, pattern: str = "{source
         def get(name):
             col = df[name]
             if not pd.api.types.is_numeric_dtype(col) and \
-                col.astype(str).str.fullmatch(_CLOCK.pattern).all():
-                t = np.array([float(_seconds_of_day(_CLOCK.fullmatch(x))) for x in col])
-                return t + 86400.0 * np.concatenate(([0], np.cumsum(np.diff(t) < -43200.0)))
+                    col.astype(str).str.fullmatch(_CLOCK.pattern).all():
+                return _through_midnight([_clock_seconds(_CLOCK.fullmatch(x)) for x in col])
             try:
                 return pd.to_numeric(col, errors="raise").to_numpy(dtype=float)
             except (ValueError, TypeError):

@@ -651,8 +651,8 @@ def screen_moves(best: Structure, moves: list, columns: Mapping, y: np.ndarray,
 
 
 def _kink_group(move: str) -> tuple:
-    """The term and the variable of an 'add kink' move: ``'add kink beta*|mach-0.6|[alpha]'``
-    -> ('beta', 'mach')."""
+    """The group of an 'add kink' move: its factors without their breakpoints, and the
+    kinked variable. ``beta*|mach-0.6|[alpha]`` and ``beta*|mach-0.7|[alpha]`` share one."""
     term = move[len("add kink "):]
     parts = multiplier_parts(term)
     kink = [c for c, a, _k in parts if a]
