@@ -26,6 +26,7 @@ import numpy as np
 
 from simplexspline._workers import ignore_interrupts
 from simplexspline._files import jsonable
+from simplexspline.aero.data.adaptive_smoothing import smooth_by_maneuver
 from simplexspline.aero.data.coefficients import THRUST_COLUMNS, aerodynamic_coefficients
 from simplexspline.aero.data.flight_data import (
     present_columns, sensor_geometry, validate_flight_data,
@@ -61,6 +62,8 @@ __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstru
 
 #: Largest sample interval [s] at which ``rate_integration='auto'`` uses the Euler step.
 _EULER_MAX_DT = 0.0101
+#: Control-surface position columns smoothed when ``smooth_controls`` (those present).
+CONTROL_COLUMNS = ("de", "da", "dr", "dte", "flap")
 #: Constant air-data errors estimated for the whole campaign (``air_data_calibration``).
 CALIBRATION_STATES = ("btas", "balpha", "bbeta", "kalpha", "kbeta")
 #: Why the vane scale factors are not estimated in a maneuver with gusts: measured on a
@@ -232,6 +235,13 @@ class ReconstructionSettings:
         The first pass uses at most this many GPS maneuvers, those with the largest heading
         change (what separates a constant wind from air-data errors), so its cost stays
         bounded on large campaigns.
+    smooth_controls : bool
+        Smooth the measured control-surface positions (:data:`CONTROL_COLUMNS`) per
+        maneuver by adaptive local polynomials
+        (:mod:`~simplexspline.aero.data.adaptive_smoothing`): their sensor noise would
+        otherwise pass into every model of them (on a light aircraft 0.02 deg of aileron
+        noise is 1.8 times the noise of Cl). A channel without noise, or one that smoothing
+        would not improve by its risk estimate, is left as measured. Default True.
     """
 
     input_noise: dict = field(default_factory=_default_input_noise)
@@ -259,6 +269,7 @@ class ReconstructionSettings:
     rate_integration: str = "auto"
     air_data_calibration: str = "campaign"
     calibration_maneuvers: int = 20
+    smooth_controls: bool = True
 
     def __post_init__(self):
         for name, keys in (("input_noise", INPUT_NAMES), ("measurement_noise",
@@ -892,6 +903,11 @@ class Reconstruction:
     latitude : dict
         The latitude the Earth model used: ``deg`` and ``source`` (settings, metadata
         ``latitude_deg`` or assumed).
+    control_smoothing : dict
+        Control column -> ``noise_std`` (median estimated sensor noise, its unit),
+        ``risk_ratio`` (median estimated error after smoothing over that noise),
+        ``smoothed`` and ``runs`` (maneuver runs smoothed, of those long enough); empty
+        when ``smooth_controls`` is off.
     """
 
     data: object
@@ -907,6 +923,7 @@ class Reconstruction:
                                                             "source": "the c.g."})
     latitude: dict = field(default_factory=lambda: {"deg": ASSUMED_LATITUDE_DEG,
                                                     "source": "assumed"})
+    control_smoothing: dict = field(default_factory=dict)
 
     def sensors(self) -> dict:
         """What the reconstruction gave for each missing or estimated quantity.
@@ -1026,6 +1043,12 @@ class Reconstruction:
                              f"metadata sensor_geometry.lag_s.{ch}")
             for c, why in sens["flags"].items():
                 lines.append(f"  {c}: {why}")
+        for ch, st in self.control_smoothing.items():
+            lines.append(f"control {ch}: " + (
+                f"smoothed in {st['smoothed']} of {st['runs']} maneuver runs (sensor noise "
+                f"{st['noise_std']:.2g}, estimated error after {st['risk_ratio']:.2f} of it)"
+                if st["smoothed"] else "left as measured (no noise found, or smoothing would "
+                                        "not reduce the error)"))
         lines.append("coefficients: thrust " + {"columns": "subtracted (thrust_* columns)",
                                                 "model": "subtracted (thrust model)",
                                                 "included": "INCLUDED (no thrust_* columns), "
@@ -1109,6 +1132,32 @@ class _Workers:
     def __exit__(self, *exc) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True)
+
+
+def _smooth_column(values: np.ndarray) -> tuple:
+    """One control channel of one maneuver (time order): smoothed values and results."""
+    return smooth_by_maneuver(np.zeros(values.size, dtype=np.int8), values)
+
+
+def _smooth_controls(df, tasks: list, workers: _Workers) -> dict:
+    """Smooth the control columns present, per maneuver; channel -> (column aligned with
+    ``df``'s rows, maneuver -> list of SmoothingResult)."""
+    channels = [c for c in CONTROL_COLUMNS if c in df.columns]
+    jobs = [(ch, t["maneuver"], t["rows"]) for ch in channels for t in tasks]
+    if not jobs:
+        return {}
+    columns = {ch: df[ch].to_numpy(dtype=float) for ch in channels}
+    payload = [columns[ch][rows] for ch, _, rows in jobs]
+    if workers.workers == 1 or len(jobs) <= 1:
+        done = [_smooth_column(v) for v in payload]
+    else:
+        done = list(workers.pool().map(_smooth_column, payload,
+                                       chunksize=max(1, len(jobs) // (4 * workers.workers))))
+    out = {ch: (columns[ch].copy(), {}) for ch in channels}
+    for (ch, m, rows), (values, results) in zip(jobs, done):
+        out[ch][0][rows] = values
+        out[ch][1][m] = results
+    return out
 
 
 def _run_all(tasks: list, settings: dict, workers: _Workers, progress: bool) -> list:
@@ -1278,6 +1327,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
             lags_applied.update(total)
             geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
             tasks, calibration, results = _passes(df, geometry, settings, pool, progress)
+        smoothed = _smooth_controls(df, tasks, pool) if settings.smooth_controls else {}
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
         m = task["maneuver"]
@@ -1301,6 +1351,16 @@ def reconstruct(df, metadata: Mapping | None = None, *,
             if name in st:
                 col[pos[r]] = st[name]
         out[name] = col
+    smoothing = {}
+    for ch, (col, per_maneuver) in smoothed.items():
+        out[ch] = col[idx]
+        runs = [r for m, rs in per_maneuver.items() if m in accepted for r in rs]
+        done = [r for r in runs if r.gamma > 0]
+        smoothing[ch] = {"runs": len(runs), "smoothed": len(done),
+                         "noise_std": float(np.median([r.noise_std for r in done]))
+                         if done else 0.0,
+                         "risk_ratio": float(np.median([r.risk_ratio for r in done]))
+                         if done else 1.0}
     coef, thrust = aerodynamic_coefficients(
         out, meta, accelerations=settings.accelerations,
         half_window=settings.diff_half_window, degree=settings.diff_degree,
@@ -1320,7 +1380,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                          unused_channels=unused, settings=settings, thrust=thrust_source,
                          lags_applied=lags_applied,
                          moment_reference=dict(coef.attrs["moment_reference"]),
-                         latitude={"deg": latitude, "source": latitude_source})
+                         latitude={"deg": latitude, "source": latitude_source},
+                         control_smoothing=smoothing)
     sensors = rec.sensors()
     meta["reconstruction"] = jsonable({
         "method": "iterated extended Kalman filter + RTS smoother (docs/reconstruction.md)",
@@ -1332,6 +1393,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         "lags_applied_s": lags_applied,
         "moment_reference": rec.moment_reference,
         "latitude": rec.latitude,
+        "control_smoothing": smoothing,
         "air_data_calibration": calibration,
         "maneuvers": {m: {k: r[k] for k in ("biases", "iterations", "innovations", "skipped",
                                             "held", "weak", "observability", "lags", "gusts")}
