@@ -45,6 +45,22 @@ def test_reconstruct_writes_output_and_summary(campaign_file, tmp_path, capsys):
         assert np.isfinite(df[c]).all()
     assert set(meta["reconstruction"]["maneuvers"]) == {"1", "3"}
     assert "too short" in meta["reconstruction"]["rejected"]["4"]
+    assert "control de: smoothed in" in text
+    source, _ = read_flight_data(campaign_file)
+    raw = source.set_index(["maneuver", "t"]).loc[list(zip(df["maneuver"], df["t"])), "de"]
+    assert not np.allclose(df["de"].to_numpy(), raw.to_numpy())          # smoothed
+
+
+def test_reconstruct_can_keep_the_controls_as_measured(campaign_file, tmp_path, capsys):
+    out = tmp_path / "raw_controls.parquet"
+    assert main(["reconstruct", str(campaign_file), "-o", str(out), "--workers", "1",
+                 "--no-control-smoothing"]) == 0
+    assert "control de" not in capsys.readouterr().out
+    df, meta = read_flight_data(out)
+    source, _ = read_flight_data(campaign_file)
+    raw = source.set_index(["maneuver", "t"]).loc[list(zip(df["maneuver"], df["t"])), "de"]
+    np.testing.assert_array_equal(df["de"].to_numpy(), raw.to_numpy())
+    assert meta["reconstruction"]["settings"]["smooth_controls"] is False
 
 
 def test_reconstruct_csv_output(campaign_file, tmp_path, capsys):

@@ -37,6 +37,9 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    "present, else smoothed differentiation of the reconstructed rates)")
     p.add_argument("--no-smoother", action="store_true",
                    help="use the forward filter only (no RTS backward pass)")
+    p.add_argument("--no-control-smoothing", action="store_true",
+                   help="keep the control-surface positions as measured (default: smoothed "
+                        "per maneuver where their sensor noise is found, docs/reconstruction.md)")
     p.add_argument("--latitude", type=float, default=None,
                    help="geodetic latitude of the flights [deg] (default: the data's "
                         "metadata latitude_deg, else 45, said in the summary)")
@@ -65,6 +68,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("the output must not overwrite the input file; choose another -o")
     settings = ReconstructionSettings(accelerations=args.accelerations,
                                       smoother=not args.no_smoother,
+                                      smooth_controls=not args.no_control_smoothing,
                                       latitude_deg=args.latitude,
                                       min_duration_s=args.min_duration,
                                       gust_std=args.gusts)

@@ -876,7 +876,8 @@ class Reconstruction:
         The accepted maneuvers in the flight-data schema with reconstructed ``alpha, beta,
         tas, phi, theta, psi``, bias-corrected ``ax, ay, az, p, q, r``, the ``pdot, qdot,
         rdot`` used, and the added columns ``CX, CY, CZ, Cl, Cm, Cn, phat, qhat, rhat``;
-        every other column (surfaces, ``true_*``, ...) is kept. Metadata in ``data.attrs``
+        the control surfaces smoothed (``settings.smooth_controls``); every other column
+        (``true_*``, ...) is kept. Metadata in ``data.attrs``
         with the key ``reconstruction`` (settings, biases, innovation statistics, rejected
         maneuvers, thrust handling).
     maneuvers : dict of int to dict
