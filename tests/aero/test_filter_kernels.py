@@ -114,7 +114,8 @@ def _compare_passes(a: dict, b: dict, xs_a, xs_b):
     _close(xs_a, xs_b, sd, "smoothed states", rtol=1e-6)
 
 
-@pytest.mark.parametrize("case", ["all", "gaps", "no accelerometers", "no arm", "iterating"])
+@pytest.mark.parametrize("case", ["all", "gaps", "no accelerometers", "no arm", "iterating",
+                                  "second order"])
 def test_forward_pass_and_smoother_equal_the_reference(monkeypatch, case):
     initial, u, z, earth, noise, arm, decay = _flight(seed=1)
     iteration = IteratedUpdate()
@@ -128,6 +129,8 @@ def test_forward_pass_and_smoother_equal_the_reference(monkeypatch, case):
         kw["specific_force"] = False
     elif case == "no arm":
         kw["arm"] = None
+    elif case == "second order":   # the step for coarsely sampled inputs
+        kw["second_order"] = True
     elif case == "iterating":      # a heading 0.3 rad off and a tight rule: several gains
         initial.x[8] += 0.3
         iteration = IteratedUpdate(tol=1e-3, max_iter=6)

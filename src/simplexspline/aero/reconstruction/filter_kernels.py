@@ -109,7 +109,7 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
     def _propagate(x, u, dt, g, earth, F, specific_force, gust_decay, out, C):
         """One step of the state equations into ``out`` and the transition matrix into
         ``F`` (every entry written) (kinematics.propagate). ``earth``: rn, rm, tan_lat,
-        the Earth rate in NED (3), rotation (0/1)."""
+        the Earth rate in NED (3), rotation (0/1), second-order step (0/1)."""
         uu, vv, ww = x[3], x[4], x[5]
         phi, theta, psi = x[6], x[7], x[8]
         fx, fy, fz = u[0] - x[9], u[1] - x[10], u[2] - x[11]
@@ -139,9 +139,6 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         pn, qn, rn = p - nb0, q - nb1, r - nb2
         for i in range(_NX):
             out[i] = x[i]
-        out[0] += dt * vn * (1.0 + x[2] / rm_)
-        out[1] += dt * ve * (1.0 + x[2] / rn_ + tan_lat * x[0] / rm_)
-        out[2] += dt * vd
         hx = 0.5 * dt * (fx + gx - (wb1 * ww - wb2 * vv))
         hy = 0.5 * dt * (fy + gy - (wb2 * uu - wb0 * ww))
         hz = 0.5 * dt * (fz + gz - (wb0 * vv - wb1 * uu))
@@ -152,7 +149,26 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         out[3] = u1 - cx + 0.5 * ccx + hx
         out[4] = v1 - cy + 0.5 * ccy + hy
         out[5] = w1 - cz + 0.5 * ccz + hz
-        out[6], out[7], out[8] = _rotate_euler(C, pn * dt, qn * dt, rn * dt, psi)
+        phi1, theta1, psi1 = _rotate_euler(C, pn * dt, qn * dt, rn * dt, psi)
+        out[6], out[7], out[8] = phi1, theta1, psi1
+        pn_, pe_, pd_ = vn, ve, vd
+        if earth[7] != 0.0:
+            cf1, sf1 = math.cos(phi1), math.sin(phi1)
+            ct1, st1 = math.cos(theta1), math.sin(theta1)
+            out[3] += 0.5 * dt * (-g * st1 - gx)
+            out[4] += 0.5 * dt * (g * sf1 * ct1 - gy)
+            out[5] += 0.5 * dt * (g * cf1 * ct1 - gz)
+            cp1, sp1 = math.cos(psi1), math.sin(psi1)
+            # C_nb at the end attitude, row by row (the rows of _dcm)
+            u2, v2, w2 = out[3], out[4], out[5]
+            pn_ = 0.5 * (vn + ct1 * cp1 * u2 + (sf1 * st1 * cp1 - cf1 * sp1) * v2
+                         + (cf1 * st1 * cp1 + sf1 * sp1) * w2)
+            pe_ = 0.5 * (ve + ct1 * sp1 * u2 + (sf1 * st1 * sp1 + cf1 * cp1) * v2
+                         + (cf1 * st1 * sp1 - sf1 * cp1) * w2)
+            pd_ = 0.5 * (vd - st1 * u2 + sf1 * ct1 * v2 + cf1 * ct1 * w2)
+        out[0] += dt * pn_ * (1.0 + x[2] / rm_)
+        out[1] += dt * pe_ * (1.0 + x[2] / rn_ + tan_lat * x[0] / rm_)
+        out[2] += dt * pd_
 
         s_ = qn * sf + rn * cf
         c_ = qn * cf - rn * sf
@@ -393,8 +409,9 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         dt : float
         g : (n,) ndarray
             Gravity per sample.
-        earth : (7,) ndarray
-            ``rn, rm, tan_lat``, the Earth rate in NED (3) and 1.0 with rotation, else 0.0.
+        earth : (8,) ndarray
+            ``rn, rm, tan_lat``, the Earth rate in NED (3), 1.0 with rotation else 0.0, and
+            1.0 for the second-order step of coarsely sampled inputs else 0.0.
         r_var : (12,) ndarray
             Measurement-noise variances.
         var_u : (6,) ndarray

@@ -188,9 +188,10 @@ def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarra
 
 def _predict(x: np.ndarray, P: np.ndarray, uk: np.ndarray, dt: float, gk: float,
              earth: EarthModel, F: np.ndarray, Qm: np.ndarray, var_u: np.ndarray,
-             specific_force: bool = True, gust_decay: float = 1.0):
+             specific_force: bool = True, gust_decay: float = 1.0,
+             second_order: bool = False):
     """Time update of ``(x, P)`` over one step; writes the transition matrix into ``F``."""
-    x = propagate(x, uk, dt, gk, earth, F, specific_force, gust_decay)
+    x = propagate(x, uk, dt, gk, earth, F, specific_force, gust_decay, second_order)
     G = F[:9, 9:15]
     P = F @ P @ F.T + Qm
     P[:9, :9] += (G * var_u) @ G.T
@@ -201,7 +202,7 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
                g: np.ndarray, earth: EarthModel, noise: FilterNoise,
                iteration: IteratedUpdate = IteratedUpdate(), *,
                arm: np.ndarray | None = None, specific_force: bool = True,
-               gust_decay: float = 1.0) -> dict:
+               gust_decay: float = 1.0, second_order: bool = False) -> dict:
     """Forward pass of the iterated extended Kalman filter.
 
     Parameters
@@ -230,6 +231,9 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
     gust_decay : float
         ``exp(-dt / tau)`` of the gusts' Gauss-Markov process (their process noise is in
         ``noise.process_var``); 1: gusts held.
+    second_order : bool
+        The second-order step for coarsely sampled inputs
+        (:func:`~simplexspline.aero.reconstruction.kinematics.propagate`).
 
     Returns
     -------
@@ -250,7 +254,7 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
     """
     if filter_kernels.HAVE_NUMBA:
         out = _run_filter_compiled(initial, u, z, dt, g, earth, noise, iteration, arm,
-                                   specific_force, gust_decay)
+                                   specific_force, gust_decay, second_order)
         if out is not None:
             return out
     n = u.shape[0]
@@ -286,7 +290,7 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
         x_filt[k] = x
         P_filt[k] = P
         x, P = _predict(x, P, u[k], dt, g[k], earth, Fs[k], Qm, var_u, specific_force,
-                        gust_decay)
+                        gust_decay, second_order)
     return {"x_filt": x_filt, "P_filt": P_filt, "x_pred": x_pred, "P_pred": P_pred, "F": Fs,
             "innov": innov, "innov_var": innov_var, "iterations": iters,
             "loglik": float(loglik)}
@@ -294,7 +298,8 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
 
 def _run_filter_compiled(initial: StateEstimate, u, z, dt, g, earth: EarthModel,
                          noise: FilterNoise, iteration: IteratedUpdate, arm,
-                         specific_force: bool, gust_decay: float) -> dict | None:
+                         specific_force: bool, gust_decay: float,
+                         second_order: bool = False) -> dict | None:
     """:func:`run_filter` by the compiled kernel; None where it stopped on numerical
     trouble (the Python path then reproduces the reference's error)."""
     n = u.shape[0]
@@ -302,7 +307,8 @@ def _run_filter_compiled(initial: StateEstimate, u, z, dt, g, earth: EarthModel,
            "x_pred": np.empty((n, NX)), "P_pred": np.empty((n, NX, NX)),
            "F": np.empty((n, NX, NX)), "innov": np.full((n, NZ), np.nan),
            "innov_var": np.full((n, NZ), np.nan), "iterations": np.zeros(n, dtype=np.int64)}
-    params = np.array([earth.rn, earth.rm, earth.tan_lat, *earth.wie, float(earth.rotation)])
+    params = np.array([earth.rn, earth.rm, earth.tan_lat, *earth.wie, float(earth.rotation),
+                       float(second_order)])
     arm = np.zeros((n, 6)) if arm is None else np.ascontiguousarray(arm, dtype=float)
     status, _, loglik = filter_kernels.filter_pass(
         np.array(initial.x, dtype=float), np.array(initial.P, dtype=float),

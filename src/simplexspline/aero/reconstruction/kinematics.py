@@ -52,7 +52,7 @@ import numpy as np
 __all__ = [
     "STATE_NAMES", "INPUT_NAMES", "MEASUREMENT_NAMES", "BIAS_STATES", "WIND_STATES",
     "SCALE_STATES", "GUST_STATES", "GUST", "EarthModel",
-    "normal_gravity", "propagate", "measure",
+    "normal_gravity", "propagate", "measure", "step_mean",
 ]
 
 #: State vector, in order.
@@ -185,9 +185,33 @@ _F_ENTRIES = (
 _F_INDEX = np.array([i * NX + j for i, j in _F_ENTRIES])
 
 
+def step_mean(values: np.ndarray) -> np.ndarray:
+    """The mean of sampled inputs over each sample interval, through the cubic of the four
+    nearest samples: ``(-x[k-1] + 13 x[k] + 13 x[k+1] - x[k+2]) / 24`` (exact for cubics;
+    the trapezoid ``(x[k] + x[k+1]) / 2`` where a neighbour is missing or not finite).
+
+    Parameters
+    ----------
+    values : (n, m) ndarray
+        Uniformly sampled inputs, one column per channel (any unit).
+
+    Returns
+    -------
+    (n - 1, m) ndarray
+        Row k: the mean over [t_k, t_k+1].
+    """
+    x = np.asarray(values, dtype=float)
+    out = 0.5 * (x[:-1] + x[1:])
+    if x.shape[0] >= 4:
+        cubic = (13.0 * (x[1:-2] + x[2:-1]) - x[:-3] - x[3:]) / 24.0
+        inner = out[1:-1]
+        np.copyto(inner, cubic, where=np.isfinite(cubic))
+    return out
+
+
 def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthModel,
-              F: np.ndarray, specific_force: bool = True, gust_decay: float = 1.0
-              ) -> np.ndarray:
+              F: np.ndarray, specific_force: bool = True, gust_decay: float = 1.0,
+              second_order: bool = False) -> np.ndarray:
     """One step of the state equations and its (first-order) transition matrix.
 
     Parameters
@@ -195,8 +219,10 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
     x : (26,) ndarray
         State at step k.
     u : (6,) ndarray
-        Measured IMU inputs: specific force ``ax, ay, az`` [m/s^2] over the step (mean of
-        samples k and k + 1), rates ``p, q, r`` [rad/s] at sample k.
+        Measured IMU inputs over the step: specific force ``ax, ay, az`` [m/s^2], rates
+        ``p, q, r`` [rad/s] (at 100 Hz the simulator's convention: the specific force's
+        trapezoid, the rates at sample k; sampled coarser, their means over the step,
+        :func:`step_mean`).
     dt : float
         Step [s].
     g : float
@@ -212,6 +238,13 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
         (held, to be driven by process noise) and ``u[:3]`` is ignored.
     gust_decay : float
         ``exp(-dt / tau)`` of the gusts' Gauss-Markov process (1: held).
+    second_order : bool
+        For inputs sampled coarser than the aircraft moves (with :func:`step_mean`): the
+        second half of the step's gravity is taken at the step's end attitude and the
+        position moves by the mean of the start and end velocities. False (the
+        simulator's 100 Hz data): both at the step's start, which matches JSBSim's own
+        steps (with the second-order step the still-air vertical wind of a c172p campaign
+        flipped sign, +0.007 -> -0.007 m/s, rather than vanishing).
 
     Returns
     -------
@@ -244,12 +277,14 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
     # attitude equation: rates relative to NED
     pn, qn, rn = p - win_b[0], q - win_b[1], r - win_b[2]
     out = x.copy()
-    # GPS x/y are latitude/longitude changes scaled at the first sample (flat earth)
-    out[0] += dt * vn * (1.0 + x[2] / earth.rm)
-    out[1] += dt * ve * (1.0 + x[2] / earth.rn + earth.tan_lat * x[0] / earth.rm)
-    out[2] += dt * vd
-    # the body axes turn by theta = omega_ib dt during the step: apply the rotation to
-    # second order (JSBSim's discrete rotation gives dt |omega|^2 V / 2 ~ 0.005 m/s^2)
+    # attitude: rotate C_nb by the exact rotation of angle |omega_nb| dt (what a normalised
+    # quaternion step does), then back to Euler angles; Euler-angle integration would leave
+    # second-order errors of dt |omega|^2 / 2 that look like gyro biases in rolling maneuvers
+    phi1, theta1, psi1 = _rotate_euler(C, pn * dt, qn * dt, rn * dt, psi)
+    out[6], out[7], out[8] = phi1, theta1, psi1
+    # the body axes turn by theta = omega_ib dt during the step: half the step's velocity
+    # change in the axes of its start, the rotation, the other half in the axes of its end
+    # (JSBSim's discrete rotation gives dt |omega|^2 V / 2 ~ 0.005 m/s^2)
     hx = 0.5 * dt * (fx + gx - (wie_b[1] * ww - wie_b[2] * vv))
     hy = 0.5 * dt * (fy + gy - (wie_b[2] * uu - wie_b[0] * ww))
     hz = 0.5 * dt * (fz + gz - (wie_b[0] * vv - wie_b[1] * uu))
@@ -260,10 +295,25 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
     out[3] = u1 - cx + 0.5 * ccx + hx
     out[4] = v1 - cy + 0.5 * ccy + hy
     out[5] = w1 - cz + 0.5 * ccz + hz
-    # attitude: rotate C_nb by the exact rotation of angle |omega_nb| dt (what a normalised
-    # quaternion step does), then back to Euler angles; Euler-angle integration would leave
-    # second-order errors of dt |omega|^2 / 2 that look like gyro biases in rolling maneuvers
-    out[6], out[7], out[8] = _rotate_euler(C, pn * dt, qn * dt, rn * dt, psi)
+    pn_, pe_, pd_ = vn, ve, vd
+    if second_order:
+        # gravity of the second half seen from the end attitude (with the start's in both
+        # halves the error is dt g dtheta / 2 per step: at 10 Hz the reconstructed angle
+        # of attack of a campaign with perfect sensors was 1.5-2.2e-4 rad off)
+        cf1, sf1 = math.cos(phi1), math.sin(phi1)
+        ct1, st1 = math.cos(theta1), math.sin(theta1)
+        out[3] += 0.5 * dt * (-g * st1 - gx)
+        out[4] += 0.5 * dt * (g * sf1 * ct1 - gy)
+        out[5] += 0.5 * dt * (g * cf1 * ct1 - gz)
+        C1 = _dcm(phi1, theta1, psi1)
+        u2, v2, w2 = out[3], out[4], out[5]
+        pn_ = 0.5 * (vn + C1[0][0] * u2 + C1[0][1] * v2 + C1[0][2] * w2)
+        pe_ = 0.5 * (ve + C1[1][0] * u2 + C1[1][1] * v2 + C1[1][2] * w2)
+        pd_ = 0.5 * (vd + C1[2][0] * u2 + C1[2][1] * v2 + C1[2][2] * w2)
+    # GPS x/y are latitude/longitude changes scaled at the first sample (flat earth)
+    out[0] += dt * pn_ * (1.0 + x[2] / earth.rm)
+    out[1] += dt * pe_ * (1.0 + x[2] / earth.rn + earth.tan_lat * x[0] / earth.rm)
+    out[2] += dt * pd_
 
     # Jacobian A = df/dx; F = I + dt A
     s_ = qn * sf + rn * cf

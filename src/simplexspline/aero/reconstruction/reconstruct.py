@@ -42,7 +42,7 @@ from simplexspline.aero.reconstruction.gusts import (
 )
 from simplexspline.aero.reconstruction.kinematics import (
     BIAS_STATES, GUST, INPUT_NAMES, MEASUREMENT_NAMES, NX, SCALE_STATES, STATE_NAMES,
-    WIND_STATES, EarthModel, measure,
+    WIND_STATES, EarthModel, measure, step_mean,
 )
 from simplexspline.aero.reconstruction.observability import (
     channels_present, heading_excursion, observability_plan, variance_reduction,
@@ -312,8 +312,9 @@ class ReconstructionSettings:
         if int(self.calibration_maneuvers) != self.calibration_maneuvers or \
                 self.calibration_maneuvers < 1:
             raise InputError("calibration_maneuvers must be a positive integer")
-        if self.rate_integration not in ("auto", "euler", "trapezoid"):
-            raise InputError("rate_integration must be 'auto', 'euler' or 'trapezoid'")
+        if self.rate_integration not in ("auto", "euler", "trapezoid", "cubic"):
+            raise InputError("rate_integration must be 'auto', 'euler', 'trapezoid' or "
+                             "'cubic'")
         if self.air_data_calibration not in ("campaign", "maneuver"):
             raise InputError("air_data_calibration must be 'campaign' or 'maneuver'")
         if self.latitude_deg is not None and not _valid_latitude(self.latitude_deg):
@@ -450,13 +451,23 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         if np.any(imu != 0) or np.ndim(cg) == 2:
             acc = specific_force_at_cg(acc, rates, dt, imu - cg)
         u[:, :3] = acc
-        # trapezoidal specific force over each step (JSBSim's translational integration)
-        u[:-1, :3] = 0.5 * (acc[:-1] + acc[1:])
-    # the body rates enter at the start of the step (explicit Euler, as JSBSim at 100 Hz),
-    # or as the mean over the step for data sampled coarser than the aircraft moves
-    if s["rate_integration"] == "trapezoid" or (s["rate_integration"] == "auto"
-                                                and dt > _EULER_MAX_DT):
-        u[:-1, 3:] = 0.5 * (rates[:-1] + rates[1:])
+    mode = s["rate_integration"]
+    if mode == "auto":
+        mode = "euler" if dt <= _EULER_MAX_DT else "cubic"
+    if mode == "cubic":
+        # data sampled coarser than the aircraft moves: the mean of each input over the
+        # step through the cubic of its four nearest samples (the trapezoid's error,
+        # (omega dt)^2 / 12, is 3 % of a 1 Hz motion at 10 Hz: the reconstructed angle of
+        # attack came out 1-3 % too small in its excursions with perfect sensors)
+        u[:-1] = step_mean(u)
+    else:
+        if present["accelerometers"]:
+            # trapezoidal specific force over each step (JSBSim's translational integration)
+            u[:-1, :3] = 0.5 * (acc[:-1] + acc[1:])
+        # the body rates enter at the start of the step (explicit Euler, as JSBSim at
+        # 100 Hz), or as the mean of the step's two samples
+        if mode == "trapezoid":
+            u[:-1, 3:] = 0.5 * (rates[:-1] + rates[1:])
     arm = np.hstack([rotation_velocity(rates, np.asarray(geo.get(k, (0.0, 0.0, 0.0)),
                                                          dtype=float) - cg)
                      for k in ("alpha_vane_position_m", "beta_vane_position_m")])
@@ -542,7 +553,8 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
             return run_filter(start, u, z, dt, g, earth,
                               FilterNoise(noise.input_std, q, noise.measurement_std),
                               IteratedUpdate(tol=s["tol"], max_iter=s["max_iter"]), arm=arm,
-                              specific_force=present["accelerometers"], gust_decay=decay)
+                              specific_force=present["accelerometers"], gust_decay=decay,
+                              second_order=mode == "cubic")
 
     air_data = [c for c in ("tas", "alpha", "beta") if c != "beta" or not plan["beta_pseudo"]]
     gust_held = {k: GUST_HELD_SCALE for k in SCALE_STATES if k not in plan["held"]}
