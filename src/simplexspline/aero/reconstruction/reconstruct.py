@@ -216,13 +216,19 @@ class ReconstructionSettings:
         most maneuvers), undo the median estimated lag (on top of any given one) and
         reconstruct again, at most 3 times while a significant lag remains
         (``Reconstruction.lags_applied``). Needs ``estimate_lags``.
-    rate_integration : {'auto', 'euler', 'trapezoid'}
-        How the body rates drive the attitude over one step: 'euler', the rate at the start
-        of the step (what JSBSim does at its 100 Hz step, so exact for the simulator's
-        full-rate data); 'trapezoid', the mean of the step's two samples (a record sampled
-        at 10-20 Hz from an aircraft that moves continuously: at 10 Hz the Euler step leaves
-        attitude errors of 0.5 dt^2 |omega dot|, several times the attitude noise);
-        'auto' (default): 'euler' up to 0.01 s sample interval, else 'trapezoid'.
+    rate_integration : {'auto', 'euler', 'trapezoid', 'cubic'}
+        How the IMU samples drive one step of the kinematic model: 'euler', the rates at
+        the start of the step and the specific force's trapezoid (what JSBSim does at its
+        100 Hz step, so exact for the simulator's full-rate data); 'trapezoid', the mean of
+        the step's two samples for the rates too; 'cubic', for a record sampled coarser
+        than the aircraft moves (10-20 Hz): the mean of every input over the step through
+        the cubic of its four nearest samples
+        (:func:`~simplexspline.aero.reconstruction.kinematics.step_mean`) and a step second
+        order in dt (:func:`~simplexspline.aero.reconstruction.kinematics.propagate`). At
+        10 Hz the trapezoid's error is 3 % of a 1 Hz motion and a first-order step leaves
+        errors of dt g dtheta / 2: a 10 Hz record with perfect sensors had alpha errors up to
+        4.6e-4 rad that way, 0.8e-4 with 'cubic'. 'auto' (default): 'euler' up to 0.01 s
+        sample interval, else 'cubic'.
     air_data_calibration : {'campaign', 'maneuver'}
         With GPS, a constant wind and constant air-data errors (airspeed bias, vane offsets
         and scale factors) can be told apart only through heading changes, so one maneuver
