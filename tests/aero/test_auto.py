@@ -3,6 +3,8 @@ scheduling moves, and the search recovering forms it was not given."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings as hsettings, strategies as st
@@ -23,14 +25,15 @@ from simplexspline.aero.selection.moves import (
     neighbours,
     schedule_moves,
 )
-from simplexspline.aero.selection.search import SelectionSettings, fit_structure, \
-    select_structure
+from simplexspline.aero.selection.search import SelectionSettings, cv_score, \
+    fit_structure, in_training_box, select_structure
 from simplexspline.aero.variables import (
     CANDIDATE_VARIABLES,
     COEFFICIENTS,
     LATERAL_COEFFICIENTS,
     LATERAL_VARIABLES,
 )
+from simplexspline.aero.config import parse_structure
 from simplexspline.errors import InputError
 
 
@@ -223,3 +226,65 @@ def test_the_kink_screen_spreads_over_terms_and_variables():
     groups = [_kink_group(m) for m in moves]
     assert groups[0] == groups[1] and len(set(groups)) == 3
     assert _one_per_group([0, 1, 2, 3], groups) == [0, 2, 3, 1]
+
+
+def test_cv_score_per_maneuver_is_the_geometric_mean_of_the_maneuvers():
+    d = _data()
+    cols = {k: d[k] for k in ("alpha", "mach", "de", "qhat", "beta")}
+    s = parse_structure("CX(alpha:2, mach | 1, qhat, de) S^1_3")
+    folds = d["man"] % 3
+    plain = SelectionSettings(prior=None, cv_average="maneuver")
+    pooled_settings = replace(plain, cv_average="sample")
+    # the reference: each maneuver scored alone (its fold's fit, its samples)
+    mse = np.array([cv_score(s, cols, d["y"], folds, pooled_settings,
+                             scored=d["man"] == g)[0] ** 2 for g in np.unique(d["man"])])
+    per = cv_score(s, cols, d["y"], folds, plain, groups=d["man"])[0]
+    rms_mean = cv_score(s, cols, d["y"], folds, replace(plain, cv_average="maneuver-rms"),
+                        groups=d["man"])[0]
+    assert rms_mean == pytest.approx(np.mean(np.sqrt(mse)), rel=1e-8)
+    assert per == pytest.approx(np.sqrt(np.exp(np.mean(np.log(mse)))), rel=1e-8)
+    pooled = cv_score(s, cols, d["y"], folds, pooled_settings, groups=d["man"])[0]
+    n = np.bincount(np.unique(d["man"], return_inverse=True)[1])
+    assert pooled == pytest.approx(np.sqrt(np.sum(mse * n) / n.sum()), rel=1e-8)
+    assert cv_score(s, cols, d["y"], folds, plain)[0] == pytest.approx(pooled, rel=1e-12)
+    with pytest.raises(InputError, match="cv_average must be one of"):
+        SelectionSettings(cv_average="median")
+
+
+def test_one_extrapolating_maneuver_does_not_outvote_the_others():
+    """A term that helps every maneuver but one, which lies beyond the other maneuvers'
+    range and which the term extrapolates badly: the pooled RMS over all held-out samples
+    rejects it; scored inside the training folds' box, or per maneuver, it is taken."""
+    rng = np.random.default_rng(5)
+    man = np.repeat(np.arange(12), 400)
+    x = rng.uniform(-1.0, 1.0, man.size)
+    z = rng.uniform(-0.2, 0.2, man.size)
+    z[man == 11] = rng.uniform(2.0, 3.0, 400)       # one maneuver far outside the others
+    y = 0.5 * x + 0.02 * z ** 2 + 1e-3 * rng.standard_normal(man.size)
+    y[man == 11] = 0.5 * x[man == 11] - 0.3 * (z[man == 11] - 2.0)   # and not like them
+    cols = {"alpha": x, "beta": z}
+    folds = man % 3
+    pooled = SelectionSettings(prior=None, cv_average="sample")
+    without = parse_structure("CX(alpha | 1) S^1_2")
+    with_z = parse_structure("CX(alpha | 1, beta*beta) S^1_2")
+
+    def gain(settings, scored=None):
+        return (cv_score(with_z, cols, y, folds, settings, groups=man, scored=scored)[0]
+                / cv_score(without, cols, y, folds, settings, groups=man, scored=scored)[0])
+
+    assert gain(pooled) > 1.0
+    box = in_training_box(cols, folds)
+    # the far maneuver is outside; of the others only a few extreme samples
+    assert not box[man == 11].any() and box[man != 11].mean() > 0.99
+    assert gain(pooled, box) < 0.5
+    assert gain(replace(pooled, cv_average="maneuver")) < 0.5
+
+
+def test_training_box_is_judged_per_fold():
+    folds = np.array([0, 0, 1, 1, 2, 2])
+    a = np.array([0.0, 1.0, 0.5, 2.0, 0.2, 0.9])
+    b = np.array([5.0, 5.0, 5.0, 5.0, 5.0, 9.0])
+    # fold 0's a = 0 is below folds 1 and 2 (min 0.2), fold 1's 2.0 above folds 0 and 2
+    # (max 1.0), fold 2's b = 9 above the others' 5
+    np.testing.assert_array_equal(in_training_box({"a": a, "b": b}, folds),
+                                  [False, True, True, False, True, False])

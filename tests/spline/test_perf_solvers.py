@@ -328,3 +328,31 @@ def test_ordering_positions_follow_facets_on_delaunay():
     pts = np.zeros((system.nglobal, 3))
     pts[system.gather] = bnet_points(tri.vertices[tri.simplices], 3).reshape(-1, 3)
     assert fill(keys) < 0.9 * fill(pts)
+
+
+def test_a_broken_pivot_is_retried_shifted_not_handed_to_superlu(monkeypatch, sparse_path):
+    """Round-off can break a pivot of the condensed KKT matrix (rho A'A outweighs sigma by
+    1e16): the sparse Cholesky is retried with a 1e-12 relative shift, a preconditioner
+    of the unshifted system, and the fit is the same."""
+    _, space, x, y, w = _fit_problem(3, 3, 1, (3, 3, 2))
+    want = space.fit(x, y, w).coefficients
+    real = solve.SparseCholesky
+    calls = {"refused": 0, "shifted": 0, "superlu": 0}
+
+    def first_attempt_fails(P, *args, **kwargs):
+        if calls["refused"] == calls["shifted"]:        # every unshifted attempt
+            calls["refused"] += 1
+            raise np.linalg.LinAlgError("matrix not positive definite")
+        calls["shifted"] += 1
+        return real(P, *args, **kwargs)
+
+    def no_superlu(*args, **kwargs):
+        calls["superlu"] += 1
+        return None
+
+    monkeypatch.setattr(solve, "SparseCholesky", first_attempt_fails)
+    monkeypatch.setattr(solve, "_splu", no_superlu)
+    got = space.fit(x, y, w).coefficients
+    assert calls["shifted"] >= 1 and calls["superlu"] == 0
+    np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-9 * np.abs(want).max())
+    assert np.abs(space.H_full @ got.ravel()).max() <= 1e-10 * np.abs(got).max()
