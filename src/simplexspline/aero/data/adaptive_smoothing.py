@@ -137,9 +137,9 @@ def _fit_sets(n: int, degree: int) -> list:
     sets = []
     for side in ("centred", "left", "right"):
         deg = degree if side == "centred" else _ONE_SIDED_DEGREE
-        pos = {"centred": None, "left": -1, "right": 0}[side]
-        windows = [(h, savgol_coeffs(2 * h + 1, deg, pos=None if pos is None else
-                                     (2 * h if pos == -1 else 0), use="dot"))
+        # where in its window the sample sits: the middle, the last or the first place
+        windows = [(h, savgol_coeffs(2 * h + 1, deg, pos={"centred": h, "left": 2 * h,
+                                                          "right": 0}[side], use="dot"))
                    for h in HALF_WIDTHS if deg + 1 < 2 * h + 1 <= n]
         room = {"centred": np.minimum(idx, n - 1 - idx), "left": idx // 2,
                 "right": (n - 1 - idx) // 2}[side]
@@ -170,7 +170,7 @@ def _ici(fits: np.ndarray, sds: np.ndarray, halves: np.ndarray, x: np.ndarray,
     hi = np.full(x.size, np.inf)
     alive = np.ones(x.size, dtype=bool)
     est = x.copy()
-    sd = np.full(x.size, np.inf if halves.size else 1.0)
+    sd = np.full(x.size, np.inf)          # no window: this direction is not used
     for y, s, h in zip(fits, sds, halves):
         np.maximum(lo, y - gamma * s, out=lo)
         np.minimum(hi, y + gamma * s, out=hi)
