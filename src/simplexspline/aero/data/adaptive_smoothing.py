@@ -128,8 +128,9 @@ _ONE_SIDED_DEGREE = 2
 
 
 def _fit_sets(n: int, degree: int) -> list:
-    """Per direction ('centred', 'left', 'right'): its (half-width, weights) list and the
-    room every sample has for it [samples]. A left window of half-width h is the 2h + 1
+    """Per direction ('centred', 'left', 'right'): its (half-width, weights) list, the
+    room every sample has for it [samples], the half-widths and the windows' white-noise
+    gains. A left window of half-width h is the 2h + 1
     samples ending at the sample, a right one those starting there."""
     from scipy.signal import savgol_coeffs
 
@@ -143,14 +144,16 @@ def _fit_sets(n: int, degree: int) -> list:
                    for h in HALF_WIDTHS if deg + 1 < 2 * h + 1 <= n]
         room = {"centred": np.minimum(idx, n - 1 - idx), "left": idx // 2,
                 "right": (n - 1 - idx) // 2}[side]
-        sets.append((side, windows, room))
+        halves = np.array([h for h, _ in windows], dtype=int)
+        gains = np.array([math.sqrt(float(w @ w)) for _, w in windows])  # noise sd ratio
+        sets.append((side, windows, room, halves, gains))
     return sets
 
 
 def _fits(x: np.ndarray, sets: list) -> list:
     """Every window's local-polynomial estimate at every sample: per direction (k, n)."""
     out = []
-    for side, windows, _ in sets:
+    for side, windows, *_ in sets:
         rows = []
         for h, w in windows:
             if side == "centred":
@@ -187,10 +190,8 @@ def _fused(x: np.ndarray, sets: list, fits: list, sigma: float, gamma: float) ->
     without a window in any direction keeps its measurement)."""
     num = np.zeros(x.size)
     den = np.zeros(x.size)
-    for (_, windows, room), f in zip(sets, fits):
-        halves = np.array([h for h, _ in windows], dtype=int)
-        sds = sigma * np.array([math.sqrt(float(w @ w)) for _, w in windows])
-        est, sd = _ici(f, sds, halves, x, room, gamma)
+    for (_, _, room, halves, gains), f in zip(sets, fits):
+        est, sd = _ici(f, sigma * gains, halves, x, room, gamma)
         used = np.isfinite(sd)
         inv = np.where(used, 1.0 / np.where(used, sd, 1.0) ** 2, 0.0)
         num = num + inv * np.where(used, est, 0.0)
@@ -250,7 +251,7 @@ def smooth_adaptive(x, *, noise: float | None = None, degree: int = 4,
         raise InputError(f"noise must be a finite standard deviation >= 0, got {noise!r}")
     n = x.size
     sets = _fit_sets(n, int(degree))
-    if sigma == 0.0 or not any(windows for _, windows, _ in sets):
+    if sigma == 0.0 or not any(windows for _, windows, *_ in sets):
         return SmoothingResult(x.copy(), sigma, 0.0, 1.0)
     rng = np.random.default_rng(seed)
     eps = 0.5 * sigma               # a finite probe: the window choice is discontinuous

@@ -106,10 +106,11 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         return phi, theta, psi
 
     @_jit
-    def _propagate(x, u, dt, g, earth, F, specific_force, gust_decay, out, C):
+    def _propagate(x, u, dt, g, earth, F, specific_force, gust_decay, out, C, C1):
         """One step of the state equations into ``out`` and the transition matrix into
         ``F`` (every entry written) (kinematics.propagate). ``earth``: rn, rm, tan_lat,
-        the Earth rate in NED (3), rotation (0/1), second-order step (0/1)."""
+        the Earth rate in NED (3), rotation (0/1), second-order step (0/1). ``C``, ``C1``:
+        scratch (3, 3) for the start and end attitudes' C_nb."""
         uu, vv, ww = x[3], x[4], x[5]
         phi, theta, psi = x[6], x[7], x[8]
         fx, fy, fz = u[0] - x[9], u[1] - x[10], u[2] - x[11]
@@ -153,19 +154,15 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         out[6], out[7], out[8] = phi1, theta1, psi1
         pn_, pe_, pd_ = vn, ve, vd
         if earth[7] != 0.0:
-            cf1, sf1 = math.cos(phi1), math.sin(phi1)
-            ct1, st1 = math.cos(theta1), math.sin(theta1)
-            out[3] += 0.5 * dt * (-g * st1 - gx)
-            out[4] += 0.5 * dt * (g * sf1 * ct1 - gy)
-            out[5] += 0.5 * dt * (g * cf1 * ct1 - gz)
-            cp1, sp1 = math.cos(psi1), math.sin(psi1)
-            # C_nb at the end attitude, row by row (the rows of _dcm)
+            _dcm(phi1, theta1, psi1, C1)
+            # gravity in end-body axes: the third row of the end C_nb times g
+            out[3] += 0.5 * dt * (g * C1[2, 0] - gx)
+            out[4] += 0.5 * dt * (g * C1[2, 1] - gy)
+            out[5] += 0.5 * dt * (g * C1[2, 2] - gz)
             u2, v2, w2 = out[3], out[4], out[5]
-            pn_ = 0.5 * (vn + ct1 * cp1 * u2 + (sf1 * st1 * cp1 - cf1 * sp1) * v2
-                         + (cf1 * st1 * cp1 + sf1 * sp1) * w2)
-            pe_ = 0.5 * (ve + ct1 * sp1 * u2 + (sf1 * st1 * sp1 + cf1 * cp1) * v2
-                         + (cf1 * st1 * sp1 - sf1 * cp1) * w2)
-            pd_ = 0.5 * (vd - st1 * u2 + sf1 * ct1 * v2 + cf1 * ct1 * w2)
+            pn_ = 0.5 * (vn + C1[0, 0] * u2 + C1[0, 1] * v2 + C1[0, 2] * w2)
+            pe_ = 0.5 * (ve + C1[1, 0] * u2 + C1[1, 1] * v2 + C1[1, 2] * w2)
+            pd_ = 0.5 * (vd + C1[2, 0] * u2 + C1[2, 1] * v2 + C1[2, 2] * w2)
         out[0] += dt * pn_ * (1.0 + x[2] / rm_)
         out[1] += dt * pe_ * (1.0 + x[2] / rn_ + tan_lat * x[0] / rm_)
         out[2] += dt * pd_
@@ -448,6 +445,7 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         Pn = np.empty((_NX, _NX))
         IKH = np.eye(_NX)
         C = np.empty((3, 3))
+        C1 = np.empty((3, 3))
         dC = np.empty((3, 3, 3))
         h = np.empty(_NZ)
         hn = np.empty(_NZ)
@@ -580,7 +578,8 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
             P_filt[k] = P
             # time update: x by the state equations, P = F P F' + Q + G Sigma_u G'
             F = Fs[k]
-            _propagate(x, u[k], dt, g[k], earth, F, specific_force, gust_decay, x_new, C)
+            _propagate(x, u[k], dt, g[k], earth, F, specific_force, gust_decay, x_new, C,
+                       C1)
             np.dot(F, P, A)
             np.dot(A, F.T, P)
             for a in range(_NX):
