@@ -17,8 +17,8 @@ from simplexspline.aero.modelling.notation import (
 from simplexspline.aero.modelling.structure import Structure
 from simplexspline.aero.variables import LATERAL_COEFFICIENTS, LATERAL_VARIABLES
 
-__all__ = ["KINK_QUANTILES", "MIN_KINK_SPACING", "kink_moves", "kink_positions", "knot_moves", "neighbours",
-           "schedule_moves"]
+__all__ = ["KINK_QUANTILES", "MIN_KINK_SPACING", "kink_moves", "kink_positions", "kinked_variable",
+           "knot_moves", "neighbours", "schedule_moves", "with_breakpoint"]
 
 #: Where a kink may be placed along a variable: these quantiles of its identification
 #: data (the breakpoints follow the data's density, never a table's grid).
@@ -225,13 +225,38 @@ def kink_moves(s: Structure, positions) -> list:
             for i, k in enumerate(ks):
                 if len(taken) and np.min(np.abs(taken - i)) < MIN_KINK_SPACING:
                     continue             # next to a kink the term has: no second one
-                factor = f"|{v}-{k:g}|" if k > 0 else f"|{v}+{-k:g}|" if k < 0 else f"|{v}|"
-                text = factor if base == "1" else f"{base}*{factor}"
-                term = format_multiplier(text, own)
+                term = _kink_term(base, v, k, own)
                 if term not in have:
                     out.append((f"add kink {term}",
                                 s.with_(multipliers=(*s.multipliers, term))))
     return out
+
+
+def kinked_variable(term: str) -> tuple | None:
+    """The variable and breakpoint of a kink term's one ``|v-k|`` factor:
+    ``'beta*|mach-0.612|[alpha]'`` -> ('mach', 0.612); None for a term without exactly one."""
+    kinks = [(c, k) for c, a, k in multiplier_parts(term) if a]
+    return kinks[0] if len(kinks) == 1 else None
+
+
+def with_breakpoint(term: str, k: float) -> str:
+    """A kink term (:func:`kinked_variable`) with its breakpoint moved to ``k``, its other
+    factors and the variables its coefficient depends on kept:
+    ``with_breakpoint('beta*|mach-0.612|[alpha]', 0.6)`` -> ``'beta*|mach-0.6|[alpha]'``."""
+    found = kinked_variable(term)
+    if found is None:
+        raise ValueError(f"{term!r} has not exactly one kink factor |v-k|")
+    v = found[0]
+    _expr, dims, _knots = parse_multiplier(term)
+    base = _product(tuple(p for p in multiplier_parts(term) if not p[1]))
+    return _kink_term(base, v, k, dims)
+
+
+def _kink_term(base: str, v: str, k: float, own) -> str:
+    """The canonical text of the term ``base*|v-k|`` whose coefficient depends on ``own``
+    (None: on every scheduling variable)."""
+    factor = f"|{v}-{k:g}|" if k > 0 else f"|{v}+{-k:g}|" if k < 0 else f"|{v}|"
+    return format_multiplier(factor if base == "1" else f"{base}*{factor}", own)
 
 
 def _product(parts) -> str:

@@ -38,7 +38,13 @@ from simplexspline.aero.modelling.structure_space import (
     input_matrix,
 )
 from simplexspline.aero.modelling.model import AeroModel
-from simplexspline.aero.selection.moves import kink_moves, kink_positions, neighbours
+from simplexspline.aero.selection.kink_location import place_kink
+from simplexspline.aero.selection.moves import (
+    kink_moves,
+    kink_positions,
+    kinked_variable,
+    neighbours,
+)
 from simplexspline.aero.modelling.prior import (
     PRIOR_DEGREES,
     PRIOR_WEIGHT,
@@ -142,6 +148,14 @@ class SelectionSettings:
         their training folds (:func:`in_training_box`), as validation scores only inside
         the model's identified box. Same benchmark: 89 on target, 0.530; off by default for
         the same reason.
+    place_kinks : bool
+        Move every kink the search accepts to where the fit's squared error is least
+        (:func:`~simplexspline.aero.selection.kink_location.place_kink`: about 15 fits of
+        the model between the candidate positions two either side of its own), kept when
+        the cross-validation score is lower. On the main job's campaign: CX 2.30 -> 2.20,
+        Cm 2.11 -> 1.75 times the noise. Same benchmark: 87 on target, geometric mean
+        0.534 (unchanged), the F-16's Cl better in three variants and its CX worse in two,
+        and 36 % more identification time; off by default.
     """
 
     candidates: tuple = CANDIDATE_VARIABLES
@@ -165,6 +179,7 @@ class SelectionSettings:
     combine: int = 3
     cv_average: str = "sample"
     cv_box: bool = False
+    place_kinks: bool = False
 
     def __post_init__(self):
         unknown = sorted(set(self.moves) - set(MOVE_KINDS))
@@ -670,6 +685,23 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
 
     score.screen = screen if settings.screen else None
     kinks = kink_positions(cols, available) if "kinks" in settings.moves else None
+    plain = replace(settings, prior=None)
+
+    def sse(s: Structure) -> float:
+        try:
+            r = ys - fit_structure(s, cols, ys, plain).predict(cols)
+        except SimplexSplineError:
+            return float("inf")
+        return float(r @ r)
+
+    def place(best: Structure, term: str):
+        v, _k = kinked_variable(term)
+        if v not in kinks or len(kinks[v]) < 2:
+            return best          # a lateral variable's kink stays at 0 (mirror symmetry)
+        with compute_slot():
+            return place_kink(best, term, kinks[v], sse, limits=ranges.get(v))[0]
+
+    score.place = place if kinks and settings.place_kinks else None
     with kernels.one_blas_thread():
         return _search(start, settings, available, budget, score, ranges, kinks)
 
@@ -814,6 +846,7 @@ def _search(start, settings, available, budget, score, ranges=None, kinks=None):
         others = [m for c, m, _s in results[1:]
                   if c < best_score * (1.0 - settings.min_improvement)]
         best, best_score = _accept(history, cand, sc)
+        best, best_score = _place(best, best_score, _move, rnd, score)
         for move in others[:settings.combine]:
             again = dict(_moves(best, settings, available, kinks)).get(move)
             if again is None or _size(again, ranges) > max(budget, _size(best, ranges)):
@@ -821,7 +854,27 @@ def _search(start, settings, available, budget, score, ranges=None, kinks=None):
             c = score(again, rnd, f"{move} (combined)")
             if c < best_score * (1.0 - settings.min_improvement):
                 best, best_score = _accept(history, again, c)
+                best, best_score = _place(best, best_score, move, rnd, score)
     return best, history
+
+
+def _place(best: Structure, best_score: float, move: str, rnd: int, score) -> tuple:
+    """After an accepted 'add kink' move: the kink moved to where the fit's squared error
+    is least (:func:`~simplexspline.aero.selection.kink_location.place_kink`), kept when
+    the cross-validation agrees."""
+    if not move.startswith("add kink ") or getattr(score, "place", None) is None:
+        return best, best_score
+    term = move[len("add kink "):]
+    if term not in best.multipliers:
+        return best, best_score
+    moved = score.place(best, term)
+    if moved == best:
+        return best, best_score
+    new = next(t for t in moved.multipliers if t not in best.multipliers)
+    c = score(moved, rnd, f"move kink {term} -> {new}")
+    if c < best_score:
+        return _accept(score.history, moved, c)
+    return best, best_score
 
 
 def _accept(history: list, structure: Structure, value: float) -> tuple:
