@@ -12,7 +12,13 @@ def test_pool_workers_leave_ctrl_c_to_their_parent():
 
     from simplexspline._workers import ignore_interrupts, interrupt_handler
 
-    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=ignore_interrupts) as pool:
-        assert pool.submit(interrupt_handler).result(timeout=120) == signal.SIG_IGN
-    assert interrupt_handler() is not signal.SIG_IGN
+    # a shell's background job starts with SIGINT ignored, and children inherit that: give
+    # the parent Python's own handler for the test, so the workers' SIG_IGN is their doing
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=ignore_interrupts) as pool:
+            assert pool.submit(interrupt_handler).result(timeout=120) == signal.SIG_IGN
+        assert interrupt_handler() is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, before)
