@@ -26,7 +26,7 @@ PACKAGE = "simplexspline"
 #: Layer of each top-level part; a module may import only modules of its layer or below.
 LAYERS = {
     "errors": 0, "_version": 0, "_files": 0, "_deprecation": 0, "_workers": 0,
-    "_compute_slots": 0,
+    "_compute_slots": 0, "_golden_section": 0,
     "distributed": 1,  # the deprecation module of simplexspline.spline.distributed
     "spline": 1,
     "estimator": 2, "aero": 2,

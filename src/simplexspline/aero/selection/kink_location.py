@@ -22,6 +22,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from simplexspline._golden_section import golden_section
 from simplexspline.aero.modelling.structure import Structure
 from simplexspline.aero.selection.moves import kinked_variable, with_breakpoint
 
@@ -36,8 +37,6 @@ REACH = 2
 GRID_POINTS = 9
 #: Golden-section steps around the best of them.
 GOLDEN_STEPS = 5
-
-_GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 
 
 def round_breakpoint(k: float) -> float:
@@ -114,18 +113,7 @@ def place_kink(structure: Structure, term: str, positions: Sequence[float],
     scores = [at(k) for k in grid]
     j = int(np.argmin(scores))
     a, b = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
-    # golden-section search in the best grid point's bracket
-    c, d = b - _GOLDEN * (b - a), a + _GOLDEN * (b - a)
-    fc, fd = at(c), at(d)
-    for _ in range(GOLDEN_STEPS):
-        if fc <= fd:
-            b, d, fd = d, c, fc
-            c = b - _GOLDEN * (b - a)
-            fc = at(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + _GOLDEN * (b - a)
-            fd = at(d)
+    golden_section(at, a, b, steps=GOLDEN_STEPS)     # in the best grid point's bracket
     k_best = min(values, key=lambda k: values[k][0])
     best, s_best = values[k_best][0], values[k_best][1]
     if not best < base:

@@ -28,6 +28,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from simplexspline._golden_section import golden_section
 from simplexspline.errors import InputError, InsufficientDataError
 from simplexspline.spline import kernels
 from simplexspline.spline.fit.cholesky import SparseCholesky
@@ -382,7 +383,7 @@ def choose_smoothing(ne, system, P, *, ridge_abs: float = 0.0, method: str = "au
     i = int(np.nanargmin(vals))
     lo, hi = logs[max(i - 1, 0)], logs[min(i + 1, len(logs) - 1)]
     if hi > lo:
-        _golden(score, lo, hi, 0.01 if ev.method == "exact" else 0.05)
+        golden_section(score, lo, hi, tol=0.01 if ev.method == "exact" else 0.05)
     best = min(seen, key=lambda k: seen[k][0])
     g, rss, edf, std = seen[best]
     keys = np.array(sorted(seen))
@@ -392,23 +393,6 @@ def choose_smoothing(ne, system, P, *, ridge_abs: float = 0.0, method: str = "au
         grid=10.0 ** keys, scores=np.array([seen[k][0] for k in keys]),
         at_boundary=bool(best <= logs[0] + 1e-9 or best >= logs[-1] - 1e-9),
         n_dropped=ev.n_dropped)
-
-
-def _golden(f, lo: float, hi: float, tol: float) -> None:
-    """Golden-section search for a minimum of ``f`` on [lo, hi] (values cached by f)."""
-    g = (np.sqrt(5.0) - 1.0) / 2.0
-    a, b = lo, hi
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    while b - a > tol:
-        if fc <= fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = f(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = f(d)
 
 
 def effective_dof(ne, system, P, lam: float, *, ridge_abs: float = 0.0,
