@@ -594,3 +594,23 @@ def test_rates_averaged_over_the_step_at_10_hz(noisy_campaign):
     assert err["auto"] < 0.5 * err["euler"]
     with pytest.raises(InputError, match="rate_integration"):
         ReconstructionSettings(rate_integration="simpson")
+
+
+def test_a_maneuver_whose_air_data_disagree_is_left_out_of_the_campaign_calibration(
+        noisy_campaign, noisy_reconstruction):
+    """One maneuver's airspeed 5 m/s off (a wrong model of that maneuver, in effect): its
+    airspeed-bias estimate lies far from the others', so the campaign calibration leaves it
+    out, names it, and stays where the clean campaign's is."""
+    clean = noisy_reconstruction.calibration["btas"]
+    sigmas = {m: r["biases"]["tas"][1] for m, r in noisy_reconstruction.maneuvers.items()}
+    bad = min(sigmas, key=sigmas.get)            # the best-determined: it would dominate
+    df = noisy_campaign.copy()
+    df.attrs = noisy_campaign.attrs
+    df.loc[df["maneuver"] == bad, "tas"] += 5.0
+    rec = reconstruct(df, workers=1)
+    assert bad in rec.calibration_excluded["btas"]
+    assert str(bad) in rec.data.attrs["reconstruction"]["air_data_calibration_excluded"]["btas"]
+    value, sd = rec.calibration["btas"]
+    assert abs(value - clean[0]) < 3 * max(sd, clean[1]), (value, sd, clean)
+    assert f"maneuver {bad}'s estimate" in rec.summary()
+    assert noisy_reconstruction.calibration_excluded == {}

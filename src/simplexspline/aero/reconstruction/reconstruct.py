@@ -33,6 +33,7 @@ from simplexspline.aero.data.flight_data import (
 )
 from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
+from simplexspline.aero.reconstruction.campaign_calibration import combine_estimates
 from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
@@ -927,6 +928,13 @@ class Reconstruction:
         ``risk_ratio`` (median estimated error after smoothing over that noise),
         ``smoothed`` and ``runs`` (maneuver runs smoothed, of those long enough); empty
         when ``smooth_controls`` is off.
+    calibration : dict
+        The campaign's air-data calibration (``air_data_calibration='campaign'``): state
+        -> (value, sigma); empty when none.
+    calibration_excluded : dict
+        State -> {maneuver: (value, sigma, z)}: first-pass estimates left out of the
+        campaign calibration, z sigma from the others'
+        (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_estimates`).
     """
 
     data: object
@@ -943,6 +951,8 @@ class Reconstruction:
     latitude: dict = field(default_factory=lambda: {"deg": ASSUMED_LATITUDE_DEG,
                                                     "source": "assumed"})
     control_smoothing: dict = field(default_factory=dict)
+    calibration: dict = field(default_factory=dict)
+    calibration_excluded: dict = field(default_factory=dict)
 
     def sensors(self) -> dict:
         """What the reconstruction gave for each missing or estimated quantity.
@@ -1057,6 +1067,13 @@ class Reconstruction:
             for ch, lag in self.lags_applied.items():
                 lines.append(f"  {ch}: lag {lag:.3g} s undone before the filter (given and "
                              "estimated)")
+            for k, (value, sd) in self.calibration.items():
+                lines.append(f"  {k}: campaign calibration {value:.4g} +- {sd:.2g}")
+            for k, out in self.calibration_excluded.items():
+                for m, (value, sd, z) in sorted(out.items()):
+                    lines.append(f"  {k}: maneuver {m}'s estimate {value:.4g} +- {sd:.2g} "
+                                 f"left out of the campaign calibration, with its other estimates ({z:.1f} sigma "
+                                 "from the others': check that maneuver's air data)")
             for ch, lag in sens["lags_s"].items():
                 lines.append(f"  {ch}: lags the reconstruction by {lag:.3g} s (median): set "
                              f"metadata sensor_geometry.lag_s.{ch}")
@@ -1201,22 +1218,31 @@ def _run_all(tasks: list, settings: dict, workers: _Workers, progress: bool) -> 
 
 
 def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: _Workers,
-                          progress: bool) -> dict:
+                          progress: bool) -> tuple[dict, dict]:
     """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
 
     Each maneuver's final estimate is a posterior of the same constant under the same
-    prior; their combination counts the prior once:
-    ``w = sum(1/sd_i^2) - (N - 1)/sd_0^2``, ``value = sum(v_i/sd_i^2) / w``, ``sd = w^-1/2``.
+    prior; their combination counts the prior once, and an estimate that disagrees with
+    the others by more than 3 sigma is left out
+    (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_estimates`),
+    with every other estimate of that maneuver.
     A state no maneuver estimates (no GPS anywhere, no vane), or whose combined sigma is
     above half its prior (the campaign barely observes it), is left out: the second pass
     then holds it at zero when the maneuver has no GPS, or estimates it per maneuver.
     Without a heading channel only maneuvers that turn by at least
     :data:`~simplexspline.aero.reconstruction.wind_triangle.MIN_HEADING_CHANGE` are used
     when there are any.
+
+    Returns
+    -------
+    calibration : dict
+        State -> (value, sigma).
+    excluded : dict
+        State -> {maneuver: (value, sigma, z)}: the estimates left out.
     """
     gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
     if not gps:
-        return {}
+        return {}, {}
     gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
     # without a heading channel a straight maneuver trades its heading against a crosswind
     # and the air-data errors with them (wind_triangle): calibrate on the turns if any
@@ -1225,17 +1251,24 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         gps = turning
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
     results = _run_all(gps, s, workers, progress)
+    est = {k: [(*r["calibration"][k], r["maneuver"]) for r in results
+               if r["ok"] and k in r["calibration"]] for k in CALIBRATION_STATES}
+    combined = {k: combine_estimates(e) for k, e in est.items()}
+    excluded = {k: c.excluded for k, c in combined.items() if c is not None and c.excluded}
+    # a maneuver that disagrees on one constant had a wrong model (still air in
+    # turbulence, a late channel): none of its estimates count
+    distrusted = {m for out in excluded.values() for m in out}
     out = {}
-    for k in CALIBRATION_STATES:
-        est = [r["calibration"][k] for r in results if r["ok"] and k in r["calibration"]]
-        if not est:
-            continue
-        sd0 = est[0][2]
-        w = sum(1 / sd ** 2 for _, sd, _ in est) - (len(est) - 1) / sd0 ** 2
-        if w <= 0 or w ** -0.5 > 0.5 * sd0:
+    for k, e in est.items():
+        c = combined[k]
+        if distrusted and c is not None:
+            c = combine_estimates([x for x in e if x[3] not in distrusted])
+            if c is not None and c.excluded:
+                excluded[k] = {**excluded.get(k, {}), **c.excluded}
+        if c is None or c.sigma > 0.5 * e[0][2]:
             continue              # the campaign does not observe it: left at its prior
-        out[k] = (float(sum(v / sd ** 2 for v, sd, _ in est) / w), float(w ** -0.5))
-    return out
+        out[k] = (c.value, c.sigma)
+    return out, excluded
 
 
 #: Most reconstructions with estimated lags undone: the smoothed states partly follow a
@@ -1245,15 +1278,17 @@ _LAG_PASSES = 3
 
 
 def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: _Workers,
-            progress: bool) -> tuple[list, dict, list]:
-    """The maneuvers' tasks, the campaign calibration and the per-maneuver results."""
+            progress: bool) -> tuple[list, dict, dict, list]:
+    """The maneuvers' tasks, the campaign calibration, the calibration estimates left out
+    and the per-maneuver results."""
     tasks = _tasks(df, geometry)
-    calibration = {}
+    calibration, excluded = {}, {}
     if settings.air_data_calibration == "campaign":
-        calibration = _campaign_calibration(tasks, settings, workers, progress)
+        calibration, excluded = _campaign_calibration(tasks, settings, workers, progress)
         for task in tasks:
             task["calibration"] = calibration
-    return tasks, calibration, _run_all(tasks, settings.to_dict(), workers, progress)
+    return (tasks, calibration, excluded,
+            _run_all(tasks, settings.to_dict(), workers, progress))
 
 
 def _without_attrs(df):
@@ -1324,7 +1359,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     latitude, latitude_source = _latitude(settings, meta)
     settings = replace(settings, latitude_deg=latitude)
     with _Workers(int(workers)) as pool:          # shared by all passes
-        tasks, calibration, results = _passes(df, geometry, settings, pool, progress)
+        tasks, calibration, excluded, results = _passes(df, geometry, settings, pool,
+                                                               progress)
         lags_applied = {ch: float(v) for ch, v in geometry["lag_s"].items() if v}
         t = df["t"].to_numpy(dtype=float)
         dt = float(np.median(np.abs(np.diff(t)))) if t.size > 1 else None
@@ -1345,7 +1381,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
             total = {first: total[first]}
             lags_applied.update(total)
             geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
-            tasks, calibration, results = _passes(df, geometry, settings, pool, progress)
+            tasks, calibration, excluded, results = _passes(df, geometry, settings, pool,
+                                                               progress)
         smoothed = _smooth_controls(df, tasks, pool) if settings.smooth_controls else {}
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
@@ -1400,7 +1437,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                          lags_applied=lags_applied,
                          moment_reference=dict(coef.attrs["moment_reference"]),
                          latitude={"deg": latitude, "source": latitude_source},
-                         control_smoothing=smoothing)
+                         control_smoothing=smoothing, calibration=calibration,
+                         calibration_excluded=excluded)
     sensors = rec.sensors()
     meta["reconstruction"] = jsonable({
         "method": "iterated extended Kalman filter + RTS smoother (docs/reconstruction.md)",
@@ -1414,6 +1452,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         "latitude": rec.latitude,
         "control_smoothing": smoothing,
         "air_data_calibration": calibration,
+        "air_data_calibration_excluded": excluded,
         "maneuvers": {m: {k: r[k] for k in ("biases", "iterations", "innovations", "skipped",
                                             "held", "weak", "observability", "lags", "gusts")}
                       for m, r in accepted.items()},

@@ -1,0 +1,96 @@
+"""The campaign calibration: per-maneuver posteriors of one constant combined with the prior
+counted once, and an estimate that disagrees with the others left out and named."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings as hsettings, strategies as st
+
+from simplexspline.aero.reconstruction.campaign_calibration import (
+    combine_estimates,
+    outlier_threshold,
+)
+
+SD0 = 2.0
+
+
+def _formula(est):
+    w = sum(1 / sd ** 2 for _v, sd, *_ in est) - (len(est) - 1) / SD0 ** 2
+    return sum(v / sd ** 2 for v, sd, *_ in est) / w, w ** -0.5
+
+
+def test_consistent_estimates_are_combined_with_the_prior_counted_once():
+    est = [(0.4, 0.3, SD0, 6), (0.9, 1.3, SD0, 8), (1.5, 0.9, SD0, 7), (-0.2, 1.7, SD0, 11)]
+    c = combine_estimates(est)
+    value, sd = _formula(est)
+    assert c.value == pytest.approx(value) and c.sigma == pytest.approx(sd)
+    assert c.used == (6, 8, 7, 11) and c.excluded == {}
+
+
+def test_an_estimate_far_from_the_others_is_left_out_and_named():
+    """The measured case: one turn judged as still air in turbulence gave a confident
+    airspeed bias of 3.10 +- 0.18 m/s against the others' -1.3 to 1.8 with sigmas 0.44-1.7;
+    combined, it made the campaign's bias 2.66 m/s (truth 0.5)."""
+    others = [(0.118, 0.443, SD0, 6), (0.219, 1.508, SD0, 8), (-1.294, 1.676, SD0, 11),
+              (1.831, 0.953, SD0, 0)]
+    est = others[:2] + [(3.102, 0.180, SD0, 7)] + others[2:]
+    assert _formula(est)[0] == pytest.approx(2.66, abs=0.01)     # what it was
+    c = combine_estimates(est)
+    assert set(c.excluded) == {7} and c.excluded[7][2] > outlier_threshold(5)
+    value, sd = _formula(others)
+    assert c.value == pytest.approx(value) and c.sigma == pytest.approx(sd)
+    assert abs(c.value - 0.5) < 1.5 * c.sigma
+
+
+def test_two_estimates_cannot_outvote_each_other_and_no_information_gives_none():
+    c = combine_estimates([(3.0, 0.1, SD0, 1), (-3.0, 0.1, SD0, 2)])
+    assert c.excluded == {} and c.value == pytest.approx(0.0, abs=1e-12)
+    assert combine_estimates([]) is None
+    # posteriors as wide as the prior: the combination is the prior's width (the caller
+    # leaves such a state out); wider ones (inconsistent) give nothing
+    assert combine_estimates([(0.1, SD0, SD0, 1), (0.2, SD0, SD0, 2)]).sigma == \
+        pytest.approx(SD0)
+    assert combine_estimates([(0.1, 1.5 * SD0, SD0, 1), (0.2, 1.5 * SD0, SD0, 2)]) is None
+    assert combine_estimates([(math.nan, 0.1, SD0, 1)]) is None
+
+
+@given(st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=12), st.integers(0, 2 ** 31))
+@hsettings(max_examples=50, deadline=None)
+def test_estimates_within_their_sigmas_are_all_kept(values, seed):
+    """Estimates of one value whose scatter is within their sigmas (here: at most 1 sigma
+    from it, so at most 2 apart in units of the larger sigma) are never left out."""
+    rng = np.random.default_rng(seed)
+    sds = rng.uniform(0.3, 1.0, len(values))
+    est = [(0.5 + v * sd, sd, SD0, i) for i, (v, sd) in enumerate(zip(values, sds))]
+    c = combine_estimates(est)
+    assert c.excluded == {} and len(c.used) == len(est)
+
+
+def test_the_threshold_grows_with_the_number_of_estimates():
+    """About 1 % family-wise: 3.09 sigma for 5 estimates, 3.48 for 20; 3.36 sigma among
+    20 (the main job's largest, an honest one) is kept, among 5 it is not."""
+    assert outlier_threshold(5) == pytest.approx(3.09, abs=0.01)
+    assert outlier_threshold(20) == pytest.approx(3.48, abs=0.01)
+    rng = np.random.default_rng(3)
+    for n, left_out in ((20, False), (5, True)):
+        sds = np.full(n, 1.0)
+        values = rng.normal(0.0, 1e-3, n)           # the others agree closely
+        values[0] = 3.36 * math.sqrt(1.0 + 1.0 / (n - 1))   # 3.36 sigma from the others
+        c = combine_estimates([(v, sd, 100.0, i) for i, (v, sd) in enumerate(zip(values, sds))])
+        assert (0 in c.excluded) == left_out, (n, c.excluded)
+
+
+def test_the_others_scatter_widens_the_threshold():
+    """When the other estimates scatter twice as much as their sigmas say, an estimate 4
+    sigma off is within their scatter (2 'real' sigmas) and kept."""
+    rng = np.random.default_rng(4)
+    others = rng.normal(0.0, 2.0, 12)
+    others = (others - others.mean()) / others.std(ddof=1) * 2.0
+    est = [(v, 1.0, 100.0, i + 1) for i, v in enumerate(others)]
+    far = 4.0 * math.sqrt(1.0 + 1.0 / 12)
+    assert combine_estimates([(far, 1.0, 100.0, 0)] + est).excluded == {}
+    assert 0 in combine_estimates([(far, 1.0, 100.0, 0)] +
+                                  [(0.01 * v, 1.0, 100.0, i) for v, _s, _p, i in est]).excluded
