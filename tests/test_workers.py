@@ -21,4 +21,5 @@ def test_pool_workers_leave_ctrl_c_to_their_parent():
             assert pool.submit(interrupt_handler).result(timeout=120) == signal.SIG_IGN
         assert interrupt_handler() is signal.default_int_handler
     finally:
-        signal.signal(signal.SIGINT, before)
+        if before is not None:       # None: installed outside Python, cannot be restored
+            signal.signal(signal.SIGINT, before)

@@ -10,6 +10,8 @@ import pytest
 from hypothesis import given, settings as hsettings, strategies as st
 
 from simplexspline.aero.reconstruction.campaign_calibration import (
+    FALSE_ALARM,
+    combine_campaign,
     combine_estimates,
     outlier_threshold,
 )
@@ -74,6 +76,9 @@ def test_the_threshold_grows_with_the_number_of_estimates():
     20 (the main job's largest, an honest one) is kept, among 5 it is not."""
     assert outlier_threshold(5) == pytest.approx(3.09, abs=0.01)
     assert outlier_threshold(20) == pytest.approx(3.48, abs=0.01)
+    assert outlier_threshold(20, FALSE_ALARM / 5) == pytest.approx(3.89, abs=0.01)
+    with pytest.raises(ValueError, match="false_alarm"):
+        outlier_threshold(5, 0.0)
     rng = np.random.default_rng(3)
     for n, left_out in ((20, False), (5, True)):
         sds = np.full(n, 1.0)
@@ -81,6 +86,24 @@ def test_the_threshold_grows_with_the_number_of_estimates():
         values[0] = 3.36 * math.sqrt(1.0 + 1.0 / (n - 1))   # 3.36 sigma from the others
         c = combine_estimates([(v, sd, 100.0, i) for i, (v, sd) in enumerate(zip(values, sds))])
         assert (0 in c.excluded) == left_out, (n, c.excluded)
+
+
+def test_a_maneuver_left_out_of_one_constant_is_left_out_of_all():
+    """Maneuver 7 disagrees on the airspeed bias and maneuver 4 on the vane scale; their
+    other estimates agree but are dropped too."""
+    btas = [(0.1, 0.4, SD0, 1), (0.2, 0.5, SD0, 2), (-0.1, 0.45, SD0, 3), (0.0, 0.5, SD0, 4),
+            (9.0, 0.1, SD0, 7)]
+    balpha = [(0.0030, 0.0010, 0.02, m) for m in (1, 2, 3, 4, 7)]
+    kalpha = [(0.0, 0.005, 0.05, 1), (0.001, 0.005, 0.05, 2), (-0.002, 0.005, 0.05, 3),
+              (0.2, 0.005, 0.05, 4)]
+    combined, excluded = combine_campaign({"btas": btas, "balpha": balpha,
+                                           "kalpha": kalpha, "bbeta": []})
+    assert set(excluded["btas"]) == {7} and set(excluded["kalpha"]) == {4}
+    assert combined["btas"].used == (1, 2, 3) and combined["balpha"].used == (1, 2, 3)
+    assert combined["kalpha"].used == (1, 2, 3) and combined["bbeta"] is None
+    assert "balpha" not in excluded          # dropped with its maneuvers, not for itself
+    # threshold with 4 constants: FALSE_ALARM / 4 per constant
+    assert excluded["btas"][7][2] > outlier_threshold(5, FALSE_ALARM / 4)
 
 
 def test_the_others_scatter_widens_the_threshold():
@@ -94,3 +117,15 @@ def test_the_others_scatter_widens_the_threshold():
     assert combine_estimates([(far, 1.0, 100.0, 0)] + est).excluded == {}
     assert 0 in combine_estimates([(far, 1.0, 100.0, 0)] +
                                   [(0.01 * v, 1.0, 100.0, i) for v, _s, _p, i in est]).excluded
+
+
+def test_an_outlier_hidden_by_another_is_found_in_the_next_round():
+    """On constant B, maneuvers 5 and 7 lie on either side of the others and widen their
+    scatter, so neither stands out; once 7 is left out for constant A, 5 stands out on B
+    and goes too, from A as well."""
+    a = [(0.0, 0.1, SD0, m) for m in (1, 2, 3, 5)] + [(5.0, 0.1, SD0, 7)]
+    b = [(0.0, 0.1, SD0, m) for m in (1, 2, 3)] + [(0.6, 0.1, SD0, 5), (-0.6, 0.1, SD0, 7)]
+    assert combine_estimates(b, FALSE_ALARM / 2).excluded == {}      # alone: hidden
+    combined, excluded = combine_campaign({"A": a, "B": b})
+    assert set(excluded["A"]) == {7} and set(excluded["B"]) == {5}
+    assert combined["A"].used == (1, 2, 3) and combined["B"].used == (1, 2, 3)

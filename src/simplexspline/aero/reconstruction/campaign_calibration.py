@@ -12,13 +12,15 @@ the campaign: measured on the real-like record of ``bench_real_like.py`` in ligh
 turbulence, with half the airspeed channel's lag undone, the turn of maneuver 7 chose still
 air and gave an airspeed bias of 3.10 +- 0.18 m/s; the other four turns gave -1.3 to 1.8 m/s
 with sigmas of 0.44-1.7, and the campaign's bias came out at 2.66 +- 0.16 m/s (the truth: 0.5)
-and every airspeed 2.6 m/s off. Here an estimate more than :func:`outlier_threshold` sigma
-from the combination of the others (both sigmas counted, and scaled by the others' own scatter when
-it exceeds their sigmas: the filters' sigmas tend to be optimistic alike) is left out, the
-worst first, while at least three remain; what was left out is reported. The threshold
-keeps the chance of leaving out an honest estimate of a campaign below 1 %: on the main
-job's 100 Hz campaign the largest distance was 3.36 sigma among 20 (kept; the threshold
-for 20 is 3.48), the bad turn above was 5.6 sigma among 5 (threshold 3.09).
+and every airspeed 2.6 m/s off. Here (:func:`combine_campaign`) an estimate more than
+:func:`outlier_threshold` sigma from the combination of the others (both sigmas counted,
+and scaled by the others' own scatter when it exceeds their sigmas: the filters' sigmas
+tend to be optimistic alike) is left out, the worst first, as long as at least three are
+compared, and so is every other estimate of that maneuver (its model was wrong); what was
+left out is reported. The threshold keeps the chance that an honest campaign loses an
+estimate below 1 % (Bonferroni over the constants and the estimates): on the main job's
+100 Hz campaign the largest distance was 3.36 sigma among 20 estimates of 5 constants
+(kept; the threshold is 3.89), the bad turn above was 5.6 sigma among 5 (threshold 3.54).
 """
 
 from __future__ import annotations
@@ -28,17 +30,21 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from statistics import NormalDist
 
-__all__ = ["FALSE_ALARM", "CombinedEstimate", "combine_estimates", "outlier_threshold"]
+__all__ = ["FALSE_ALARM", "CombinedEstimate", "combine_campaign", "combine_estimates",
+           "outlier_threshold"]
 
-#: Chance that one of N honest estimates is left out (a Bonferroni bound): the threshold
-#: grows with N, 3.1 sigma for 5 estimates, 3.5 for 20.
+#: Chance that an honest campaign loses an estimate (a Bonferroni bound over its constants
+#: and their estimates).
 FALSE_ALARM = 0.01
 
 
-def outlier_threshold(n: int) -> float:
-    """Sigmas from the others beyond which one of ``n`` estimates is left out: the
-    two-sided normal quantile of :data:`FALSE_ALARM` / n."""
-    return NormalDist().inv_cdf(1.0 - FALSE_ALARM / (2 * max(n, 1)))
+def outlier_threshold(n: int, false_alarm: float = FALSE_ALARM) -> float:
+    """Sigmas from the others beyond which one of ``n`` estimates of a constant is left
+    out: the two-sided normal quantile of ``false_alarm / n`` (3.09 for 5 estimates at
+    1 %, 3.48 for 20)."""
+    if not 0.0 < false_alarm < 1.0:
+        raise ValueError(f"false_alarm must lie in (0, 1), got {false_alarm!r}")
+    return NormalDist().inv_cdf(1.0 - false_alarm / (2 * max(n, 1)))
 
 
 @dataclass(frozen=True)
@@ -64,8 +70,8 @@ class CombinedEstimate:
 
 def _pool(estimates: Sequence[tuple]) -> tuple[float, float]:
     """(value, sigma) of posteriors (value, sigma, prior sigma, ...) of one constant under
-    one zero-mean prior, the prior counted once; sigma inf when they hold no information
-    beyond the prior."""
+    one zero-mean prior (that of the first), the prior counted once; sigma inf when
+    together they hold less information than the prior (inconsistent sigmas)."""
     sd0 = estimates[0][2]
     w = sum(1.0 / e[1] ** 2 for e in estimates) - (len(estimates) - 1) / sd0 ** 2
     if not w > 0:
@@ -84,7 +90,8 @@ def _dispersion(estimates: Sequence[tuple]) -> float:
     return max(1.0, chi2 / (len(estimates) - 1))
 
 
-def combine_estimates(estimates: Sequence[tuple]) -> CombinedEstimate | None:
+def combine_estimates(estimates: Sequence[tuple],
+                      false_alarm: float = FALSE_ALARM) -> CombinedEstimate | None:
     """The combination of per-maneuver posteriors of one constant, outliers left out.
 
     Parameters
@@ -92,18 +99,22 @@ def combine_estimates(estimates: Sequence[tuple]) -> CombinedEstimate | None:
     estimates : sequence of (value, sigma, prior_sigma, maneuver)
         Each maneuver's final estimate, its standard deviation and the prior's (the same
         in all), in the constant's unit.
+    false_alarm : float
+        Chance of leaving out an estimate of honest ones (:func:`outlier_threshold`).
 
     Returns
     -------
     CombinedEstimate or None
-        None when there are no estimates or they hold no information beyond the prior.
+        None when there are no finite estimates or together they hold less information
+        than the prior; posteriors as wide as the prior give the prior's sigma (the
+        caller decides whether that is information).
     """
     kept = [tuple(e) for e in estimates if math.isfinite(e[0]) and e[1] > 0]
     if not kept:
         return None
     excluded = {}
     while len(kept) >= 3:
-        worst, z_worst = None, outlier_threshold(len(kept))
+        worst, z_worst = None, outlier_threshold(len(kept), false_alarm)
         for i, e in enumerate(kept):
             others = kept[:i] + kept[i + 1:]
             value, sd = _pool(others)
@@ -119,3 +130,35 @@ def combine_estimates(estimates: Sequence[tuple]) -> CombinedEstimate | None:
     if not math.isfinite(sd):
         return None
     return CombinedEstimate(float(value), float(sd), tuple(e[3] for e in kept), excluded)
+
+
+def combine_campaign(estimates: dict) -> tuple[dict, dict]:
+    """Every constant's combination, a maneuver left out of one left out of all.
+
+    Parameters
+    ----------
+    estimates : dict of str to list
+        Constant -> its estimates (value, sigma, prior_sigma, maneuver) (see
+        :func:`combine_estimates`).
+
+    Returns
+    -------
+    combined : dict of str to CombinedEstimate or None
+        Of the estimates of the maneuvers that no constant left out.
+    excluded : dict of str to dict
+        Constant -> {maneuver: (value, sigma, z)}: the estimates left out for being far
+        from the others (``z`` sigma), not those dropped with their maneuver.
+    """
+    false_alarm = FALSE_ALARM / max(len(estimates), 1)
+    distrusted: set = set()
+    excluded: dict = {}
+    while True:
+        combined = {k: combine_estimates([e for e in est if e[3] not in distrusted],
+                                         false_alarm) for k, est in estimates.items()}
+        new = {m for c in combined.values() if c is not None for m in c.excluded}
+        for k, c in combined.items():
+            if c is not None and c.excluded:
+                excluded.setdefault(k, {}).update(c.excluded)
+        if not new:
+            return combined, excluded
+        distrusted |= new

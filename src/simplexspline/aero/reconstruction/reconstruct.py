@@ -33,7 +33,7 @@ from simplexspline.aero.data.flight_data import (
 )
 from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
-from simplexspline.aero.reconstruction.campaign_calibration import combine_estimates
+from simplexspline.aero.reconstruction.campaign_calibration import combine_campaign
 from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
@@ -1222,10 +1222,9 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
 
     Each maneuver's final estimate is a posterior of the same constant under the same
-    prior; their combination counts the prior once, and an estimate that disagrees with
-    the others by more than 3 sigma is left out
-    (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_estimates`),
-    with every other estimate of that maneuver.
+    prior; their combination counts the prior once, and an estimate too far from the
+    others' is left out, with every other estimate of that maneuver
+    (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_campaign`).
     A state no maneuver estimates (no GPS anywhere, no vane), or whose combined sigma is
     above half its prior (the campaign barely observes it), is left out: the second pass
     then holds it at zero when the maneuver has no GPS, or estimates it per maneuver.
@@ -1253,19 +1252,10 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     results = _run_all(gps, s, workers, progress)
     est = {k: [(*r["calibration"][k], r["maneuver"]) for r in results
                if r["ok"] and k in r["calibration"]] for k in CALIBRATION_STATES}
-    combined = {k: combine_estimates(e) for k, e in est.items()}
-    excluded = {k: c.excluded for k, c in combined.items() if c is not None and c.excluded}
-    # a maneuver that disagrees on one constant had a wrong model (still air in
-    # turbulence, a late channel): none of its estimates count
-    distrusted = {m for out in excluded.values() for m in out}
+    combined, excluded = combine_campaign(est)
     out = {}
-    for k, e in est.items():
-        c = combined[k]
-        if distrusted and c is not None:
-            c = combine_estimates([x for x in e if x[3] not in distrusted])
-            if c is not None and c.excluded:
-                excluded[k] = {**excluded.get(k, {}), **c.excluded}
-        if c is None or c.sigma > 0.5 * e[0][2]:
+    for k, c in combined.items():
+        if c is None or c.sigma > 0.5 * est[k][0][2]:
             continue              # the campaign does not observe it: left at its prior
         out[k] = (c.value, c.sigma)
     return out, excluded

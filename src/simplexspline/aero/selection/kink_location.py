@@ -103,7 +103,8 @@ def place_kink(structure: Structure, term: str, positions: Sequence[float],
         terms[index] = with_breakpoint(term, k)
         s = structure if k == round_breakpoint(k0) else structure.with_(
             multipliers=tuple(terms))
-        values[k] = (float(sse(s)), s)
+        e = float(sse(s))
+        values[k] = (e if np.isfinite(e) else np.inf, s)    # a failed fit: never the best
         return values[k][0]
 
     base = at(k0)

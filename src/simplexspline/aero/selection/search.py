@@ -150,7 +150,7 @@ class SelectionSettings:
         the same reason.
     place_kinks : bool
         Move every kink the search accepts to where the fit's squared error is least
-        (:func:`~simplexspline.aero.selection.kink_location.place_kink`: about 15 fits of
+        (:func:`~simplexspline.aero.selection.kink_location.place_kink`: up to 17 fits of
         the model between the candidate positions two either side of its own), kept when
         the cross-validation score is lower. On the main job's campaign: CX 2.30 -> 2.20,
         Cm 2.11 -> 1.75 times the noise. Same benchmark: 87 on target, geometric mean
