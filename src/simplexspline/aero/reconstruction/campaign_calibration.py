@@ -79,13 +79,12 @@ def _pool(estimates: Sequence[tuple]) -> tuple[float, float]:
     return sum(e[0] / e[1] ** 2 for e in estimates) / w, w ** -0.5
 
 
-def _dispersion(estimates: Sequence[tuple]) -> float:
-    """How much more the estimates scatter than their sigmas say (the Birge ratio
-    chi^2/dof about their combination, at least 1): filters' sigmas are often optimistic
-    alike, and an estimate is judged against the scatter the others show."""
+def _dispersion(estimates: Sequence[tuple], value: float) -> float:
+    """How much more the estimates scatter about their combination ``value`` than their
+    sigmas say (the Birge ratio chi^2/dof, at least 1): filters' sigmas are often
+    optimistic alike, and an estimate is judged against the scatter the others show."""
     if len(estimates) < 2:
         return 1.0
-    value, _sd = _pool(estimates)
     chi2 = sum((e[0] - value) ** 2 / e[1] ** 2 for e in estimates)
     return max(1.0, chi2 / (len(estimates) - 1))
 
@@ -118,7 +117,7 @@ def combine_estimates(estimates: Sequence[tuple],
         for i, e in enumerate(kept):
             others = kept[:i] + kept[i + 1:]
             value, sd = _pool(others)
-            z = (abs(e[0] - value) / math.hypot(e[1], sd) / math.sqrt(_dispersion(others))
+            z = (abs(e[0] - value) / math.hypot(e[1], sd) / math.sqrt(_dispersion(others, value))
                  if math.isfinite(sd) else 0.0)
             if z > z_worst:
                 worst, z_worst = i, z

@@ -85,9 +85,9 @@ def place_kink(structure: Structure, term: str, positions: Sequence[float],
     lo = below[-REACH] if len(below) >= REACH else min(lo_limit, k0)
     hi = above[REACH - 1] if len(above) >= REACH else max(hi_limit, k0)
     # other kinks of the same factors along v: the term may not land on one of them
-    others = [kinked_variable(t)[1] for t in structure.multipliers if t != term
-              and kinked_variable(t) is not None and kinked_variable(t)[0] == v
-              and with_breakpoint(t, k0) == term]
+    kinked = {t: kinked_variable(t) for t in structure.multipliers if t != term}
+    others = [found[1] for t, found in kinked.items()
+              if found is not None and found[0] == v and with_breakpoint(t, k0) == term]
     tolerance = 0.05 * (hi - lo)
     index = structure.multipliers.index(term)
     values: dict[float, tuple[float, Structure]] = {}

@@ -685,23 +685,25 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
 
     score.screen = screen if settings.screen else None
     kinks = kink_positions(cols, available) if "kinks" in settings.moves else None
-    plain = replace(settings, prior=None)
+    score.place = None
+    if kinks and settings.place_kinks:
+        plain = replace(settings, prior=None)
 
-    def sse(s: Structure) -> float:
-        try:
-            r = ys - fit_structure(s, cols, ys, plain).predict(cols)
-        except SimplexSplineError:
-            return float("inf")
-        return float(r @ r)
+        def sse(s: Structure) -> float:
+            try:
+                r = ys - fit_structure(s, cols, ys, plain).predict(cols)
+            except SimplexSplineError:
+                return float("inf")
+            return float(r @ r)
 
-    def place(best: Structure, term: str):
-        v, _k = kinked_variable(term)
-        if v not in kinks or len(kinks[v]) < 2:
-            return best          # a lateral variable's kink stays at 0 (mirror symmetry)
-        with compute_slot():
-            return place_kink(best, term, kinks[v], sse, limits=ranges.get(v))[0]
+        def place(best: Structure, term: str):
+            v, _k = kinked_variable(term)
+            if v not in kinks or len(kinks[v]) < 2:
+                return best          # a lateral variable's kink stays at 0 (mirror symmetry)
+            with compute_slot():
+                return place_kink(best, term, kinks[v], sse, limits=ranges.get(v))[0]
 
-    score.place = place if kinks and settings.place_kinks else None
+        score.place = place
     with kernels.one_blas_thread():
         return _search(start, settings, available, budget, score, ranges, kinks)
 
