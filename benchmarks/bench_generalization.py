@@ -65,9 +65,14 @@ def true_inputs(valid, variables, metadata) -> dict:
     """The model inputs ``variables`` of the validation samples as the simulator had them
     (``true_*`` columns; the non-dimensional rates, flow-angle rates and the thrust
     coefficient recomputed from true values); columns without a truth are taken as they
-    are (mass, flap, thrust: not corrupted by the sensor model)."""
+    are (mass, flap, thrust: not corrupted by the sensor model). The body rates are those
+    relative to the air (``true_p_aero`` ..) where the campaign flew in wind: in
+    turbulence the aerodynamics see them, not the inertial rates the gyros measure."""
     true = {v: valid[f"true_{v}"].to_numpy(dtype=float) if f"true_{v}" in valid.columns
             else None for v in ("alpha", "beta", "tas", "rho", "p", "q", "r")}
+    for axis in "pqr":
+        if f"true_{axis}_aero" in valid.columns:
+            true[axis] = valid[f"true_{axis}_aero"].to_numpy(dtype=float)
     length = {"phat": ("p", "b"), "qhat": ("q", "cbar"), "rhat": ("r", "b")}
     frame = valid[["maneuver", "t"]].copy()
     for v in ("alpha", "beta", "tas"):
@@ -90,6 +95,23 @@ def true_inputs(valid, variables, metadata) -> dict:
     return out
 
 
+def rms_at_true_inputs(result, c: str) -> float:
+    """RMS of coefficient ``c``'s identified model at the validation samples' true inputs
+    (:func:`true_inputs`) against the true coefficient, over the samples inside the
+    identification data's coverage: the model's own error, without that of the
+    reconstructed states it is evaluated at."""
+    valid = result.validation
+    model = result.results[c].model
+    cols = true_inputs(valid, model.variables, result.metadata)   # whole maneuvers
+    keep = valid[f"inside_{c}"].to_numpy(dtype=bool) & np.all(
+        np.isfinite(np.column_stack(list(cols.values()))), axis=1)
+    if not keep.any():
+        return float("nan")
+    pred = model.predict({v: x[keep] for v, x in cols.items()})
+    err = pred - valid.loc[keep, f"true_{c}"].to_numpy(dtype=float)
+    return float(np.sqrt(np.mean(err ** 2)))
+
+
 def identify_variant(df, gps: bool) -> tuple[list[dict], float, list[str]]:
     """Default identification with or without the GPS columns; rows, seconds, warnings.
 
@@ -104,15 +126,8 @@ def identify_variant(df, gps: bool) -> tuple[list[dict], float, list[str]]:
     result = identify(data)
     seconds = time.perf_counter() - t0
     rows = []
-    valid = result.validation
     for c, entry in result.summary()["coefficients"].items():
-        model = result.results[c].model
-        cols = true_inputs(valid, model.variables, result.metadata)   # whole maneuvers
-        keep = valid[f"inside_{c}"].to_numpy(dtype=bool) & np.all(
-            np.isfinite(np.column_stack(list(cols.values()))), axis=1)
-        pred = model.predict({v: x[keep] for v, x in cols.items()})
-        err = pred - valid.loc[keep, f"true_{c}"].to_numpy(dtype=float)
-        at_truth = float(np.sqrt(np.mean(err ** 2))) if keep.any() else float("nan")
+        at_truth = rms_at_true_inputs(result, c)
         noise = entry.get("noise_rms")
         rows.append({"coefficient": c, "rms_true": entry.get("rms_true"),
                      "noise_rms": noise,

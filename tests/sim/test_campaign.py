@@ -252,6 +252,10 @@ def test_steady_wind_keeps_the_trim_and_is_recorded():
         assert abs(first["true_theta"] - first["true_alpha"]) < 1e-3
         assert abs(first["true_beta"]) < 1e-3
         assert abs(first["true_az"] + G0 * math.cos(first["true_theta"])) < 0.02
+        # steady wind: the air does not rotate, aero rates = inertial rates (but for the
+        # Earth's rotation, which JSBSim's aero rates leave out)
+        for axis in "pqr":
+            assert np.abs(m[f"true_{axis}_aero"] - m[f"true_{axis}"]).max() < 1e-4, axis
         lead = m[m["t"] < LEAD_S - 0.2]
         assert np.abs(lead[["p", "q", "r"]].to_numpy()).max() < 5e-4
 
@@ -262,6 +266,11 @@ def test_turbulence_moves_the_air_and_is_recorded():
     _check_wind_identity(df)
     assert np.ptp(np.hypot(df["true_wind_n"], df["true_wind_e"])) > 0.05
     assert np.ptp(df["true_wind_d"]) > 0.05
+    # the rotational gusts: the aerodynamics see body rates relative to the air, which
+    # differ from the inertial (gyro) rates by more than the gyro noise
+    for axis in "pqr":
+        gust = df[f"true_{axis}_aero"] - df[f"true_{axis}"]
+        assert gust.std() > 3e-4, axis
     again = small_campaign("global5000", maneuvers=1, mix={"doublet": 1},
                            wind=Wind((5.0, 5.0), "light")).run(workers=1, progress=False)
     pd.testing.assert_frame_equal(df, again, check_exact=True)  # seeded gusts

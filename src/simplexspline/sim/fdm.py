@@ -46,6 +46,9 @@ RECORD: tuple[str, ...] = (
     "atmosphere/total-wind-down-fps",
     # the c.g. in JSBSim's structural frame (x aft, y right, z up) [in]: fuel burn moves it
     "inertia/cg-x-in", "inertia/cg-y-in", "inertia/cg-z-in",
+    # body rates relative to the air mass, which the aerodynamics see (in turbulence they
+    # differ from the inertial rates by the rotational gusts, which no gyro measures)
+    "velocities/p-aero-rad_sec", "velocities/q-aero-rad_sec", "velocities/r-aero-rad_sec",
 )
 #: JSBSim models switched off after the trim because they contribute exactly nothing here
 #: (outputs stay bit-identical; a step gets about 40 % cheaper): ground reactions are zero

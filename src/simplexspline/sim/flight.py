@@ -441,4 +441,6 @@ def schema_columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dic
     if spec.get("wind"):  # steady wind + turbulence, towards north, east, down
         for axis, d in (("n", "north"), ("e", "east"), ("d", "down")):
             out[f"true_wind_{axis}"] = col[f"atmosphere/total-wind-{d}-fps"] * u.FT
+        for axis in "pqr":
+            out[f"true_{axis}_aero"] = col[f"velocities/{axis}-aero-rad_sec"]
     return out
