@@ -11,16 +11,18 @@ from hypothesis import given, settings as hsettings, strategies as st
 
 from simplexspline.aero.reconstruction.campaign_calibration import (
     FALSE_ALARM,
+    campaign_priors,
     combine_campaign,
     combine_estimates,
     outlier_threshold,
+    spread_between,
 )
 
 SD0 = 2.0
 
 
-def _formula(est):
-    w = sum(1 / sd ** 2 for _v, sd, *_ in est) - (len(est) - 1) / SD0 ** 2
+def _formula(est, sd0=SD0):
+    w = sum(1 / sd ** 2 for _v, sd, *_ in est) - (len(est) - 1) / sd0 ** 2
     return sum(v / sd ** 2 for v, sd, *_ in est) / w, w ** -0.5
 
 
@@ -129,3 +131,55 @@ def test_an_outlier_hidden_by_another_is_found_in_the_next_round():
     combined, excluded = combine_campaign({"A": a, "B": b})
     assert set(excluded["A"]) == {7} and set(excluded["B"]) == {5}
     assert combined["A"].used == (1, 2, 3) and combined["B"].used == (1, 2, 3)
+
+
+def test_the_spread_between_maneuvers_is_what_the_sigmas_do_not_explain():
+    """DerSimonian-Laird: estimates scattered only by their sigmas give (about) zero;
+    a constant that itself changes from maneuver to maneuver by tau gives about tau."""
+    rng = np.random.default_rng(3)
+    sig = rng.uniform(0.5, 1.5, 400)
+    honest = [(s * rng.standard_normal(), s, 100.0, i) for i, s in enumerate(sig)]
+    value = sum(e[0] / e[1] ** 2 for e in honest) / sum(1 / e[1] ** 2 for e in honest)
+    assert spread_between(honest, value) < 0.15
+    tau = 2.0
+    varying = [(tau * rng.standard_normal() + s * rng.standard_normal(), s, 100.0, i)
+               for i, s in enumerate(sig)]
+    value = sum(e[0] / e[1] ** 2 for e in varying) / sum(1 / e[1] ** 2 for e in varying)
+    assert spread_between(varying, value) == pytest.approx(tau, rel=0.15)
+    assert spread_between(varying[:1], 0.0) == 0.0
+
+
+def test_each_maneuver_gets_the_others_estimate_as_its_prior():
+    """A maneuver's prior never holds its own estimate: it is the combination of the
+    others (prior counted once), widened by their spread; maneuvers outside the pass get
+    the whole campaign's."""
+    est = {"br": [(1.0e-4, 2e-5, 2e-3, 0), (1.3e-4, 2e-5, 2e-3, 1), (1.1e-4, 3e-5, 2e-3, 2),
+                  (1.2e-4, 2e-5, 2e-3, 3)]}
+    campaign, per, excluded = campaign_priors(est)
+    assert not excluded and set(per) == {0, 1, 2, 3}
+    for i, e in enumerate(est["br"]):
+        others = est["br"][:i] + est["br"][i + 1:]
+        value, sd = _formula(others, sd0=2e-3)
+        assert per[e[3]]["br"][0] == pytest.approx(value, rel=1e-12)
+        tau = spread_between(others, value)
+        assert per[e[3]]["br"][1] == pytest.approx(math.hypot(sd, tau), rel=1e-12)
+    value, sd = _formula(est["br"], sd0=2e-3)
+    assert campaign["br"] == pytest.approx((value, math.hypot(sd, spread_between(est["br"],
+                                                                                  value))))
+
+
+def test_an_outlier_gets_the_others_prior_and_an_unknown_constant_none():
+    """A maneuver left out gets the campaign's prior (of the others); with two estimates a
+    maneuver has one other, too few for a prior; a constant the maneuvers do not know
+    better than the filter's prior gives none."""
+    est = {"bp": [(3.5e-4, 1e-5, 2e-3, m) for m in range(4)] + [(3.0e-3, 1e-5, 2e-3, 9)],
+           "bq": [(0.0, 1.9e-3, 2e-3, m) for m in (0, 1, 2, 3, 9)]}
+    campaign, per, excluded = campaign_priors(est)
+    assert 9 in excluded["bp"] and 9 not in per
+    assert campaign["bp"][0] == pytest.approx(3.5e-4, rel=1e-4) and "bq" not in campaign
+    assert all("bq" not in p for p in per.values())
+    two = {"br": [(1e-4, 1e-5, 2e-3, 0), (1.1e-4, 1e-5, 2e-3, 1)]}
+    campaign, per, _ = campaign_priors(two)
+    assert per == {0: {}, 1: {}} and "br" in campaign
+    with pytest.raises(ValueError, match="informative"):
+        campaign_priors(two, informative=0.0)

@@ -616,3 +616,91 @@ def test_a_maneuver_whose_air_data_disagree_is_left_out_of_the_campaign_calibrat
     assert abs(value - clean[0]) < 3 * max(sd, clean[1]), (value, sd, clean)
     assert f"maneuver {bad}'s estimate" in rec.summary()
     assert noisy_reconstruction.calibration_excluded == {}
+
+
+@pytest.fixture(scope="module")
+def turns_and_straights():
+    """Three 15-18 s sum-of-sines turns and two straight 3211s in a 6-9 m/s wind (default
+    sensors), without heading, sideslip vane or GPS velocities."""
+    from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, SensorModel
+    from simplexspline.sim.wind import Wind
+
+    df = Campaign("f16", maneuvers=5, seed=4, sensors=SensorModel(), wind=Wind((6.0, 9.0)),
+                  grid=ConditionGrid(altitudes_m=[3000.0], airspeeds_mps=[160.0]),
+                  protocol=FlightProtocol(mix={"sum-of-sines": 3, "3211": 2},
+                                          sos_duration_s=(15.0, 18.0), turn_fraction=1.0)
+                  ).run(workers=1, progress=False)
+    return df.drop(columns=["psi", "beta", "vn_gps", "ve_gps", "vd_gps"])
+
+
+def _straight(rec) -> list:
+    return [m for m, r in rec.maneuvers.items() if "WEAK" in r["observability"]["wind"]]
+
+
+def test_the_imu_biases_of_the_turns_hold_those_of_the_straight_maneuvers(
+        turns_and_straights):
+    """Without heading a straight maneuver cannot tell a yaw-rate gyro bias from a sideslip
+    drift; the turns observe it. With the campaign's IMU biases as each maneuver's prior
+    the straight maneuvers' gyro bias is the truth's within its sigma and their sideslip
+    error halves; every maneuver says where its prior came from."""
+    runs = {mode: reconstruct(turns_and_straights, workers=1,
+                              settings=ReconstructionSettings(imu_calibration=mode))
+            for mode in ("maneuver", "campaign")}
+    straight = _straight(runs["campaign"])
+    assert len(straight) == 2 and straight == _straight(runs["maneuver"])
+    true_r = DEFAULT_BIAS["r"]
+    value, sd = runs["campaign"].imu_calibration["br"]
+    assert abs(value - true_r) < 3 * sd and sd < 0.2 * abs(true_r)
+    assert runs["maneuver"].imu_calibration == {}
+    beta_err = {}
+    for mode, rec in runs.items():
+        d = rec.data[rec.data["maneuver"].isin(straight)]
+        beta_err[mode] = _rms(d["beta"] - d["true_beta"])
+    assert beta_err["campaign"] < 0.6 * beta_err["maneuver"]
+    for m in straight:
+        own = runs["maneuver"].maneuvers[m]["biases"]["r"]
+        est, sd = runs["campaign"].maneuvers[m]["biases"]["r"]
+        assert abs(est - true_r) < 3 * sd and sd < 0.2 * own[1]
+        assert runs["campaign"].maneuvers[m]["observability"]["imu_biases"].startswith(
+            "estimated from a prior from the campaign's other maneuvers")
+        assert runs["maneuver"].maneuvers[m]["observability"]["imu_biases"] == \
+            "the filter's prior"
+    # known through the campaign: not reported as weakly observed
+    assert "r" not in runs["campaign"].sensors()["weakly_observed"]
+    assert "r bias: campaign estimate" in runs["campaign"].summary()
+    assert "imu_calibration" in runs["campaign"].data.attrs["reconstruction"]
+    with pytest.raises(InputError, match="imu_calibration must be 'campaign' or 'maneuver'"):
+        ReconstructionSettings(imu_calibration="flight")
+
+
+def test_a_maneuver_with_another_gyro_bias_keeps_its_own_and_is_named(turns_and_straights):
+    """One turn's yaw gyro reads 3e-3 rad/s more: the campaign leaves its estimate out, the
+    others keep the true bias, and that maneuver, which contradicts its prior, drops it
+    for its own estimate and says so."""
+    df = turns_and_straights.copy()
+    turns = [m for m in df["maneuver"].unique()
+             if heading_excursion({c: df.loc[df["maneuver"] == m, c].to_numpy()
+                                   for c in ("t", "q", "r", "phi", "theta")}) > 0.3]
+    bad = int(turns[0])
+    df.loc[df["maneuver"] == bad, "r"] += 3e-3
+    rec = reconstruct(df, workers=1)
+    assert bad in rec.calibration_excluded["br"]
+    true_r = DEFAULT_BIAS["r"]
+    for m, r in rec.maneuvers.items():
+        est, sd = r["biases"]["r"]
+        statement = r["observability"]["imu_biases"]
+        if m == bad:
+            assert abs(est - (true_r + 3e-3)) < max(3 * sd, 1e-4)
+            assert re.search(r"its own estimate from the filter's prior: its r bias lies "
+                             r"[\d.]+ sigma from the campaign's", statement)
+        else:
+            assert abs(est - true_r) < 3 * sd, (m, est, sd)
+    # the straight maneuvers have the two good turns' prior; each good turn has only one
+    # other left, too few for a prior (its own estimate is never part of it)
+    for m in _straight(rec):
+        assert rec.maneuvers[m]["observability"]["imu_biases"].startswith(
+            "estimated from a prior from the campaign's other")
+    for m in set(turns) - {bad}:
+        assert rec.maneuvers[m]["observability"]["imu_biases"] == \
+            "the filter's prior (no campaign estimate)"
+    assert f"maneuver {bad}'s estimate" in rec.summary()

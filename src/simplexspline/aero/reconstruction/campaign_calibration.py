@@ -30,8 +30,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from statistics import NormalDist
 
-__all__ = ["FALSE_ALARM", "CombinedEstimate", "combine_campaign", "combine_estimates",
-           "outlier_threshold"]
+__all__ = ["FALSE_ALARM", "CombinedEstimate", "campaign_priors", "combine_campaign",
+           "combine_estimates", "outlier_threshold", "spread_between"]
 
 #: Chance that an honest campaign loses an estimate (a Bonferroni bound over its constants
 #: and their estimates).
@@ -161,3 +161,81 @@ def combine_campaign(estimates: dict) -> tuple[dict, dict]:
         if not new:
             return combined, excluded
         distrusted |= new
+
+
+def spread_between(estimates: Sequence[tuple], value: float) -> float:
+    """The standard deviation of the constant itself from maneuver to maneuver, beyond what
+    the estimates' sigmas explain (DerSimonian and Laird's moment estimate, 0 when the
+    scatter is no larger than the sigmas say).
+
+    Parameters
+    ----------
+    estimates : sequence of (value, sigma, ...)
+        At least two finite estimates.
+    value : float
+        Their combination.
+    """
+    if len(estimates) < 2:
+        return 0.0
+    w = [1.0 / e[1] ** 2 for e in estimates]
+    q = sum(wi * (e[0] - value) ** 2 for wi, e in zip(w, estimates))
+    denom = sum(w) - sum(wi * wi for wi in w) / sum(w)
+    if not denom > 0:
+        return 0.0
+    return math.sqrt(max(0.0, (q - (len(estimates) - 1)) / denom))
+
+
+def campaign_priors(estimates: dict, informative: float = 0.5) -> tuple[dict, dict, dict]:
+    """Priors for constants that the maneuvers of a campaign share but that not every
+    maneuver observes (an IMU's biases: a gyro bias is seen in a turn, not in a straight
+    maneuver without a heading channel).
+
+    Each maneuver gets the combination of the *other* maneuvers' estimates (its own data
+    are not counted twice), with the sigma of a new maneuver's value: the combination's
+    sigma and the constant's own spread between maneuvers (:func:`spread_between`), so a
+    bias that changes between flights gives a wide prior and one that stays gives a tight
+    one. A constant whose prior would not be narrower than ``informative`` times the
+    filter's own prior is left out: the campaign does not know it better than the maneuver.
+
+    Parameters
+    ----------
+    estimates : dict of str to list
+        Constant -> its estimates (value, sigma, prior_sigma, maneuver), as for
+        :func:`combine_campaign` (outliers are left out the same way).
+    informative : float
+        Largest ratio of the campaign prior's sigma to the filter's prior sigma kept.
+
+    Returns
+    -------
+    campaign : dict of str to (float, float)
+        Constant -> (value, sigma) for a maneuver whose estimate was not combined.
+    per_maneuver : dict of int to dict
+        Maneuver -> {constant: (value, sigma)} for every maneuver combined: the others'
+        combination (a constant absent when fewer than two others remain: the maneuver's
+        own estimate is never part of its prior).
+    excluded : dict of str to dict
+        As :func:`combine_campaign`.
+    """
+    if not 0.0 < informative <= 1.0:
+        raise ValueError(f"informative must lie in (0, 1], got {informative!r}")
+    combined, excluded = combine_campaign(estimates)
+    campaign: dict = {}
+    per_maneuver: dict = {}
+    for k, c in combined.items():
+        if c is None:
+            continue
+        kept = [e for e in estimates[k] if e[3] in c.used]
+        limit = informative * kept[0][2]
+        sd = math.hypot(c.sigma, spread_between(kept, c.value))
+        if sd < limit:
+            campaign[k] = (c.value, sd)
+        for i, e in enumerate(kept):
+            mine = per_maneuver.setdefault(e[3], {})
+            others = kept[:i] + kept[i + 1:]
+            if len(others) < 2:
+                continue
+            value, sd = _pool(others)
+            sd = math.hypot(sd, spread_between(others, value))
+            if sd < limit:
+                mine[k] = (value, sd)
+    return campaign, per_maneuver, excluded

@@ -33,7 +33,9 @@ from simplexspline.aero.data.flight_data import (
 )
 from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
-from simplexspline.aero.reconstruction.campaign_calibration import combine_campaign
+from simplexspline.aero.reconstruction.campaign_calibration import (campaign_priors,
+                                                                     combine_campaign,
+                                                                     outlier_threshold)
 from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
@@ -67,6 +69,9 @@ _EULER_MAX_DT = 0.0101
 CONTROL_COLUMNS = ("de", "da", "dr", "dte", "flap")
 #: Constant air-data errors estimated for the whole campaign (``air_data_calibration``).
 CALIBRATION_STATES = ("btas", "balpha", "bbeta", "kalpha", "kbeta")
+#: IMU biases that the campaign's maneuvers share (one IMU): each maneuver's prior is the
+#: others' estimate (``imu_calibration``).
+IMU_STATES = ("bax", "bay", "baz", "bp", "bq", "br")
 #: Why the vane scale factors are not estimated in a maneuver with gusts: measured on a
 #: 3-maneuver f16 campaign in JSBSim's light turbulence (default sensors, no scale error),
 #: estimated they came out at 0.2 and 0.34 +- 0.02 (the part of the gusts' angles of attack
@@ -238,6 +243,21 @@ class ReconstructionSettings:
         calibration (the sensors are the same in every maneuver), and the second pass holds
         them there and estimates the wind per maneuver. 'maneuver': one pass, everything
         per maneuver.
+    imu_calibration : {'campaign', 'maneuver'}
+        The IMU's biases are the same in every maneuver of a campaign flown with one IMU,
+        but not every maneuver observes them: without a heading channel a straight
+        maneuver cannot tell a yaw-rate gyro bias from a slow sideslip change (both keep
+        the heading plus the sideslip on the GPS track), so a gyro bias of 1.7e-4 rad/s
+        was estimated anywhere within +-1.2e-3 in the straight maneuvers of a real-like
+        record, and the sideslip ramped by up to 1.2e-2 rad over 11 s, while every turn
+        found it within 3e-5. 'campaign' (default): the first pass (that of
+        ``air_data_calibration``, on the GPS maneuvers) also estimates the IMU biases,
+        and each maneuver starts from the combination of the *other* maneuvers'
+        estimates, with their sigma widened by the biases' own scatter between maneuvers
+        (:func:`~simplexspline.aero.reconstruction.campaign_calibration.campaign_priors`):
+        a prior, not a held value, so a maneuver that observes its biases still
+        estimates them, and biases that change between flights give a wide prior.
+        'maneuver': the filter's own prior (``prior['gyro_bias']``, ``accel_bias``).
     calibration_maneuvers : int
         The first pass uses at most this many GPS maneuvers, those with the largest heading
         change (what separates a constant wind from air-data errors), so its cost stays
@@ -275,6 +295,7 @@ class ReconstructionSettings:
     apply_estimated_lags: bool = True
     rate_integration: str = "auto"
     air_data_calibration: str = "campaign"
+    imu_calibration: str = "campaign"
     calibration_maneuvers: int = 20
     smooth_controls: bool = True
 
@@ -322,8 +343,10 @@ class ReconstructionSettings:
         if self.rate_integration not in ("auto", "euler", "trapezoid", "cubic"):
             raise InputError("rate_integration must be 'auto', 'euler', 'trapezoid' or "
                              "'cubic'")
-        if self.air_data_calibration not in ("campaign", "maneuver"):
-            raise InputError("air_data_calibration must be 'campaign' or 'maneuver'")
+        for name in ("air_data_calibration", "imu_calibration"):
+            if getattr(self, name) not in ("campaign", "maneuver"):
+                raise InputError(f"{name} must be 'campaign' or 'maneuver', got "
+                                 f"{getattr(self, name)!r}")
         if self.latitude_deg is not None and not _valid_latitude(self.latitude_deg):
             raise InputError(f"latitude_deg must be a latitude in degrees (-90 .. 90) or "
                              f"None (from the data), got {self.latitude_deg!r}")
@@ -539,6 +562,21 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
                             triangle=triangle)
     for k, (value, _) in calibration.items():
         initial.x[STATE_NAMES.index(k)] = value     # held there (variance at the floor)
+    imu_prior = {k: v for k, v in (task.get("imu_prior") or {}).items()
+                 if k not in plan["held"] and not s.get("calibration_pass")
+                 and v[1] ** 2 < initial.P[STATE_NAMES.index(k), STATE_NAMES.index(k)]}
+    own_prior = {}
+    for k, (value, sd) in imu_prior.items():
+        i = STATE_NAMES.index(k)
+        own_prior[k] = (initial.x[i], initial.P[i, i])
+        initial.x[i], initial.P[i, i] = value, sd ** 2
+    if imu_prior:
+        plan["imu_biases"] = ("estimated from a prior from the campaign's other maneuvers ("
+                              + ", ".join(BIAS_STATES[k] for k in imu_prior) + ")")
+    elif s["imu_calibration"] == "campaign" and not s.get("calibration_pass"):
+        plan["imu_biases"] = "the filter's prior (no campaign estimate)"
+    else:
+        plan["imu_biases"] = "the filter's prior"
     if crosswind_sd is not None:
         initial.P[8, 8] = 1e-16     # heading held on the track: no crab, no crosswind
     tas = np.asarray(task["tas"], dtype=float)
@@ -571,14 +609,31 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     if "calibration" in task and not s.get("calibration_pass"):    # the campaign's 2nd pass
         gust_held.update({k: GUST_HELD_UNCALIBRATED for k in ("btas", "balpha", "bbeta")
                           if k not in plan["held"] and k not in gust_held})
-    if not present["accelerometers"] or s["gust_std"] == 0:
-        gusts = GustChoice(forward(0.0, math.nan), 0.0, math.nan, {}, math.nan)
-    else:
-        gusts = choose_gusts(
+
+    def choose() -> GustChoice:
+        if not present["accelerometers"] or s["gust_std"] == 0:
+            return GustChoice(forward(0.0, math.nan), 0.0, math.nan, {}, math.nan)
+        return choose_gusts(
             forward, s["gust_candidates"] if s["gust_std"] == "auto" else [s["gust_std"]],
             s["gust_lengths_m"], None if s["gust_std"] != "auto" else lambda o: (
                 innovation_excess(innovation_statistics(o["innov"], o["innov_var"]),
                                   air_data)))
+
+    gusts = choose()
+    conflict = _prior_conflict(gusts.out, imu_prior)
+    if conflict:
+        # the maneuver contradicts the biases the others share: its model is wrong (a
+        # misjudged turbulence, a glitch), and holding it to the campaign moves the error
+        # into its sideslip or wind; it keeps its own estimate and is named
+        for k, (value, var) in own_prior.items():
+            i = STATE_NAMES.index(k)
+            initial.x[i], initial.P[i, i] = value, var
+        k, zk = max(conflict.items(), key=lambda kv: kv[1])
+        plan["imu_biases"] = (f"its own estimate from the filter's prior: its "
+                              f"{BIAS_STATES[k]} bias lies {zk:.1f} sigma from the campaign's "
+                              f"(a model error in this maneuver, such as turbulence taken for "
+                              f"still air, a glitch or another IMU, if far)")
+        gusts = choose()
     out = gusts.out
     if gusts.std > 0:
         for k, why in gust_held.items():
@@ -591,7 +646,7 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
             k: (float(out["x_filt"][-1, STATE_NAMES.index(k)]),
                 float(math.sqrt(P[STATE_NAMES.index(k), STATE_NAMES.index(k)])),
                 float(math.sqrt(initial.P[STATE_NAMES.index(k), STATE_NAMES.index(k)])))
-            for k in CALIBRATION_STATES if k not in plan["held"]}}
+            for k in CALIBRATION_STATES + IMU_STATES if k not in plan["held"]}}
     innov = out["innov"]
     stats = innovation_statistics(innov, out["innov_var"])
     if plan["beta_pseudo"]:
@@ -609,7 +664,11 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         xs = out["x_filt"]
     Pend = out["P_filt"][-1]
     sd_end = np.sqrt(np.maximum(Pend.diagonal(), 0.0))
-    ratio = variance_reduction(np.sqrt(initial.P.diagonal()), sd_end)
+    # against the filter's own prior: a state the campaign's prior determines is known
+    own_var = initial.P.diagonal().copy()
+    for k, (_value, var) in own_prior.items():
+        own_var[STATE_NAMES.index(k)] = var
+    ratio = variance_reduction(np.sqrt(own_var), sd_end)
     biases = {}
     for name, ch in {**BIAS_STATES, **{w: w for w in WIND_STATES},
                      **{k: k for k in SCALE_STATES}}.items():
@@ -648,7 +707,7 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         for j, c in enumerate(WIND_STATES):       # steady wind plus gusts
             states[c] = xs[:, 18 + j] + xs[:, GUST.start + j]
     lags = _lag_estimates(xs, z, arm, dt, plan) if s["estimate_lags"] else {}
-    observability = {k: plan[k] for k in ("beta", "psi", "wind", "forces")}
+    observability = {k: plan[k] for k in ("beta", "psi", "wind", "forces", "imu_biases")}
     return {"maneuver": man, "ok": True, "states": states, "biases": biases,
             "held": held, "weak": weak, "observability": observability, "lags": lags,
             "innovations": stats, "skipped": skipped,
@@ -851,6 +910,30 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
 
 # ----------------------------------------------------------------------------- campaign
 
+def _prior_conflict(out: dict, prior: Mapping) -> dict:
+    """States whose estimate moved further from their campaign prior than the prior and
+    the data allow: state -> z, for those beyond
+    :func:`~simplexspline.aero.reconstruction.campaign_calibration.outlier_threshold`
+    (1 % false alarms over the states). Under a consistent model the shift of a constant's
+    estimate from its prior mean has the variance ``prior - posterior``.
+    """
+    if not prior:
+        return {}
+    x, P = out["x_filt"][-1], out["P_filt"][-1]
+    if not (np.isfinite(x).all() and np.isfinite(P).all()):
+        return {}
+    limit = outlier_threshold(len(prior))
+    found = {}
+    for k, (value, sd) in prior.items():
+        i = STATE_NAMES.index(k)
+        spread = sd ** 2 - P[i, i]
+        if spread > 0:
+            z = abs(x[i] - value) / math.sqrt(spread)
+            if z > limit:
+                found[k] = float(z)
+    return found
+
+
 #: Lags [s] above this (and 3 sigma) count even when below half a sample.
 MIN_LAG_S = 0.02
 
@@ -935,6 +1018,10 @@ class Reconstruction:
         State -> {maneuver: (value, sigma, z)}: first-pass estimates left out of the
         campaign calibration, z sigma from the others'
         (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_estimates`).
+    imu_calibration : dict
+        IMU bias state (``bax`` .. ``br``) -> (value, sigma): the campaign's estimate, the
+        prior of every maneuver outside the first pass (``imu_calibration='campaign'``;
+        those in it start from the others' estimates).
     """
 
     data: object
@@ -953,6 +1040,7 @@ class Reconstruction:
     control_smoothing: dict = field(default_factory=dict)
     calibration: dict = field(default_factory=dict)
     calibration_excluded: dict = field(default_factory=dict)
+    imu_calibration: dict = field(default_factory=dict)
 
     def sensors(self) -> dict:
         """What the reconstruction gave for each missing or estimated quantity.
@@ -960,7 +1048,8 @@ class Reconstruction:
         Returns
         -------
         dict
-            ``beta``, ``psi``, ``wind``, ``forces``: statement -> number of maneuvers;
+            ``beta``, ``psi``, ``wind``, ``forces``, ``imu_biases`` (where each
+            maneuver's IMU-bias prior came from): statement -> number of maneuvers;
             ``held``: state -> reason (held at its prior, not estimated: unobservable or
             no sensor); ``weakly_observed``: states whose final sigma exceeds half their
             prior in most maneuvers; ``lags_s``: channel -> median estimated lag [s] over
@@ -971,7 +1060,7 @@ class Reconstruction:
         """
         out: dict = {}
         ms = list(self.maneuvers.values())
-        for key in ("beta", "psi", "wind", "forces"):
+        for key in ("beta", "psi", "wind", "forces", "imu_biases"):
             counts: dict = {}
             for r in ms:
                 st = r["observability"][key]
@@ -1055,7 +1144,7 @@ class Reconstruction:
         if self.maneuvers:
             sens = self.sensors()
             lines.append("sensors and observability (statement: maneuvers):")
-            for key in ("beta", "psi", "wind", "forces"):
+            for key in ("beta", "psi", "wind", "forces", "imu_biases"):
                 for st, c in sens[key].items():
                     lines.append(f"  {key}: {st}: {c}")
             lines.append(f"  turbulence: {sens['gusts']}")
@@ -1069,11 +1158,15 @@ class Reconstruction:
                              "estimated)")
             for k, (value, sd) in self.calibration.items():
                 lines.append(f"  {k}: campaign calibration {value:.4g} +- {sd:.2g}")
+            for k, (value, sd) in self.imu_calibration.items():
+                lines.append(f"  {BIAS_STATES[k]} bias: campaign estimate {value:.4g} +- "
+                             f"{sd:.2g} (each maneuver's prior)")
             for k, out in self.calibration_excluded.items():
                 for m, (value, sd, z) in sorted(out.items()):
                     lines.append(f"  {k}: maneuver {m}'s estimate {value:.4g} +- {sd:.2g} "
-                                 f"left out of the campaign calibration, with its other estimates ({z:.1f} sigma "
-                                 "from the others': check that maneuver's air data)")
+                                 f"left out of the campaign calibration, with its other "
+                                 f"estimates ({z:.1f} sigma from the others': check that "
+                                 f"maneuver's {'IMU' if k in IMU_STATES else 'air data'})")
             for ch, lag in sens["lags_s"].items():
                 lines.append(f"  {ch}: lags the reconstruction by {lag:.3g} s (median): set "
                              f"metadata sensor_geometry.lag_s.{ch}")
@@ -1218,7 +1311,7 @@ def _run_all(tasks: list, settings: dict, workers: _Workers, progress: bool) -> 
 
 
 def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: _Workers,
-                          progress: bool) -> tuple[dict, dict]:
+                          progress: bool) -> tuple[dict, dict, dict, dict]:
     """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
 
     Each maneuver's final estimate is a posterior of the same constant under the same
@@ -1232,16 +1325,25 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     :data:`~simplexspline.aero.reconstruction.wind_triangle.MIN_HEADING_CHANGE` are used
     when there are any.
 
+    The same pass estimates the IMU biases (``imu_calibration``): they become each
+    maneuver's prior, not held values
+    (:func:`~simplexspline.aero.reconstruction.campaign_calibration.campaign_priors`).
+
     Returns
     -------
     calibration : dict
         State -> (value, sigma).
     excluded : dict
         State -> {maneuver: (value, sigma, z)}: the estimates left out.
+    imu : dict
+        IMU bias state -> (value, sigma): the prior of a maneuver not in the pass.
+    imu_per_maneuver : dict
+        Maneuver -> {IMU bias state: (value, sigma)}: the prior of a maneuver in the pass
+        (the others' estimates).
     """
     gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
     if not gps:
-        return {}, {}
+        return {}, {}, {}, {}
     gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
     # without a heading channel a straight maneuver trades its heading against a crosswind
     # and the air-data errors with them (wind_triangle): calibrate on the turns if any
@@ -1250,15 +1352,23 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         gps = turning
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
     results = _run_all(gps, s, workers, progress)
-    est = {k: [(*r["calibration"][k], r["maneuver"]) for r in results
-               if r["ok"] and k in r["calibration"]] for k in CALIBRATION_STATES}
-    combined, excluded = combine_campaign(est)
-    out = {}
-    for k, c in combined.items():
-        if c is None or c.sigma > 0.5 * est[k][0][2]:
-            continue              # the campaign does not observe it: left at its prior
-        out[k] = (c.value, c.sigma)
-    return out, excluded
+    def estimates(states) -> dict:
+        return {k: [(*r["calibration"][k], r["maneuver"]) for r in results
+                    if r["ok"] and k in r["calibration"]] for k in states}
+
+    out, excluded = {}, {}
+    if settings.air_data_calibration == "campaign":
+        est = estimates(CALIBRATION_STATES)
+        combined, excluded = combine_campaign(est)
+        for k, c in combined.items():
+            if c is None or c.sigma > 0.5 * est[k][0][2]:
+                continue              # the campaign does not observe it: left at its prior
+            out[k] = (c.value, c.sigma)
+    imu, imu_per_maneuver = {}, {}
+    if settings.imu_calibration == "campaign":
+        imu, imu_per_maneuver, imu_excluded = campaign_priors(estimates(IMU_STATES))
+        excluded = {**excluded, **imu_excluded}
+    return out, excluded, imu, imu_per_maneuver
 
 
 #: Most reconstructions with estimated lags undone: the smoothed states partly follow a
@@ -1268,16 +1378,19 @@ _LAG_PASSES = 3
 
 
 def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: _Workers,
-            progress: bool) -> tuple[list, dict, dict, list]:
-    """The maneuvers' tasks, the campaign calibration, the calibration estimates left out
-    and the per-maneuver results."""
+            progress: bool) -> tuple[list, dict, dict, dict, list]:
+    """The maneuvers' tasks, the campaign calibration, the calibration estimates left out,
+    the campaign's IMU biases and the per-maneuver results."""
     tasks = _tasks(df, geometry)
-    calibration, excluded = {}, {}
-    if settings.air_data_calibration == "campaign":
-        calibration, excluded = _campaign_calibration(tasks, settings, workers, progress)
+    calibration, excluded, imu = {}, {}, {}
+    if "campaign" in (settings.air_data_calibration, settings.imu_calibration):
+        calibration, excluded, imu, imu_per_maneuver = _campaign_calibration(
+            tasks, settings, workers, progress)
         for task in tasks:
-            task["calibration"] = calibration
-    return (tasks, calibration, excluded,
+            if settings.air_data_calibration == "campaign":
+                task["calibration"] = calibration
+            task["imu_prior"] = imu_per_maneuver.get(int(task["maneuver"]), imu)
+    return (tasks, calibration, excluded, imu,
             _run_all(tasks, settings.to_dict(), workers, progress))
 
 
@@ -1349,8 +1462,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     latitude, latitude_source = _latitude(settings, meta)
     settings = replace(settings, latitude_deg=latitude)
     with _Workers(int(workers)) as pool:          # shared by all passes
-        tasks, calibration, excluded, results = _passes(df, geometry, settings, pool,
-                                                               progress)
+        tasks, calibration, excluded, imu, results = _passes(df, geometry, settings, pool,
+                                                                    progress)
         lags_applied = {ch: float(v) for ch, v in geometry["lag_s"].items() if v}
         t = df["t"].to_numpy(dtype=float)
         dt = float(np.median(np.abs(np.diff(t)))) if t.size > 1 else None
@@ -1371,8 +1484,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
             total = {first: total[first]}
             lags_applied.update(total)
             geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
-            tasks, calibration, excluded, results = _passes(df, geometry, settings, pool,
-                                                               progress)
+            tasks, calibration, excluded, imu, results = _passes(df, geometry, settings, pool,
+                                                                    progress)
         smoothed = _smooth_controls(df, tasks, pool) if settings.smooth_controls else {}
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
@@ -1428,7 +1541,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                          moment_reference=dict(coef.attrs["moment_reference"]),
                          latitude={"deg": latitude, "source": latitude_source},
                          control_smoothing=smoothing, calibration=calibration,
-                         calibration_excluded=excluded)
+                         calibration_excluded=excluded, imu_calibration=imu)
     sensors = rec.sensors()
     meta["reconstruction"] = jsonable({
         "method": "iterated extended Kalman filter + RTS smoother (docs/reconstruction.md)",
@@ -1443,6 +1556,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         "control_smoothing": smoothing,
         "air_data_calibration": calibration,
         "air_data_calibration_excluded": excluded,
+        "imu_calibration": imu,
         "maneuvers": {m: {k: r[k] for k in ("biases", "iterations", "innovations", "skipped",
                                             "held", "weak", "observability", "lags", "gusts")}
                       for m, r in accepted.items()},
