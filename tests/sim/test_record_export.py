@@ -63,6 +63,26 @@ def test_indicated_airspeed_inverts_to_the_true_airspeed(record):
     assert np.allclose(tas[airborne], truth["tas"][airborne], rtol=2e-6)
 
 
+def test_the_altimeter_shows_the_isa_pressure_altitude_of_the_static_pressure(record):
+    """Ideal sensors: the record's pressure altitude gives back the static pressure through
+    the ISA, as an altimeter set to 1013.25 hPa does (JSBSim's own pressure-altitude is the
+    standard day's geometric altitude: 0.1 % of pressure off at 4.5 km), so the import's
+    density is the simulator's."""
+    from simplexspline.aero.data.atmosphere import isa_pressure
+
+    truth = pd.read_csv(record / "truth.csv")
+    temp = _channel(record, "sat")[:, 1] + 273.15
+    hp = _channel(record, "hp")[:, 1]
+    t = _channel(record, "hp")[:, 0]
+    spans = pd.read_csv(record / "maneuvers.csv")
+    # the maneuvers (the transitions between them blend each channel on its own)
+    inside = np.zeros(t.size, dtype=bool)
+    for _, s in spans.iterrows():
+        inside |= (t >= s["start"] - 1e-6) & (t <= s["end"] + 1e-6)
+    rho = isa_pressure(hp[inside] * FT) / (287.05287 * temp[inside])
+    assert np.allclose(rho, truth["rho"][inside], rtol=1e-6)
+
+
 def test_record_refuses_to_overwrite_and_odd_rates(tmp_path, global5000_ideal):
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "x.txt").write_text("mine")

@@ -13,6 +13,7 @@ from array import array
 
 import numpy as np
 
+from simplexspline.aero.data.atmosphere import pressure_altitude
 from simplexspline.errors import SimulationError
 from simplexspline.sim import units as u
 from simplexspline.sim.aircraft import AircraftProfile, Envelope
@@ -371,7 +372,9 @@ def schema_columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dic
     psi = col["attitude/psi-rad"]
     true = {
         "alpha": alpha, "beta": beta, "tas": col["velocities/vt-fps"] * u.FT,
-        "mach": col["velocities/mach"], "h": col["atmosphere/pressure-altitude"] * u.FT,
+        # what an altimeter shows: the ISA pressure altitude of the static pressure
+        "mach": col["velocities/mach"],
+        "h": pressure_altitude(col["atmosphere/P-psf"] * u.PSF),
         "rho": col["atmosphere/rho-slugs_ft3"] * u.SLUG_FT3,
         "p": col["velocities/pi-rad_sec"], "q": col["velocities/qi-rad_sec"],
         "r": col["velocities/ri-rad_sec"],

@@ -19,8 +19,9 @@ import numpy as np
 from simplexspline.errors import InputError
 
 __all__ = ["cas_from_mach", "GAMMA", "LAPSE_RATE", "P0", "R_AIR", "T0", "TROPOPAUSE_M", "CEILING_M",
-           "isa_temperature", "isa_pressure", "isa_density", "density", "speed_of_sound",
-           "mach_from_cas", "static_temperature_from_total"]
+           "isa_temperature", "isa_pressure", "isa_density", "pressure_altitude", "density",
+           "hydrostatic_height",
+           "speed_of_sound", "mach_from_cas", "static_temperature_from_total"]
 
 #: Sea-level standard pressure [Pa], temperature [K]; gas constant of air [J/(kg K)];
 #: ratio of specific heats; tropospheric lapse rate [K/m]; standard gravity [m/s^2].
@@ -58,6 +59,63 @@ def isa_pressure(h) -> np.ndarray:
         G0 / (R_AIR * LAPSE_RATE))
     high = _P11 * np.exp(-G0 * (h - TROPOPAUSE_M) / (R_AIR * _T11))
     return np.where(h <= TROPOPAUSE_M, low, high)
+
+
+def pressure_altitude(pressure) -> np.ndarray:
+    """Pressure altitude [m] of static pressure ``pressure`` [Pa] (array_like): the
+    inverse of :func:`isa_pressure`, what an altimeter set to 1013.25 hPa shows.
+
+    >>> round(float(pressure_altitude(isa_pressure(7000.0))), 6)
+    7000.0
+    """
+    p = np.asarray(pressure, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if (p <= 0).any():
+            raise InputError("static pressure must be positive in Pa")
+        low = T0 / LAPSE_RATE * (1.0 - (p / P0) ** (R_AIR * LAPSE_RATE / G0))
+        high = TROPOPAUSE_M - R_AIR * _T11 / G0 * np.log(p / _P11)
+    return _altitude(np.where(p >= _P11, low, high))
+
+
+def hydrostatic_height(h, rho, g=G0) -> np.ndarray:
+    """Geometric height change [m] along a record from its pressure altitude ``h`` [m] and
+    air density ``rho`` [kg/m^3], relative to the first sample where both are finite
+    (NaN elsewhere): the hydrostatic equation ``dz = -dp / (rho g)`` summed over the steps
+    between finite samples.
+
+    A pressure altitude climbs at the geometric rate only on a standard day and in the
+    ISA's geopotential metres: its rate is ``T_ISA(h) / T`` times the geometric one (4 %
+    off with the static temperature 12 K from standard), and ``g0 / g`` (0.2 % at 7 km).
+    A barometric altitude that stands in for the GPS altitude goes through this first.
+
+    Parameters
+    ----------
+    h : array_like, shape (N,)
+        Pressure altitude [m].
+    rho : array_like, shape (N,)
+        Air density [kg/m^3] (from the static pressure and temperature).
+    g : float or array_like, shape (N,)
+        Gravity [m/s^2].
+
+    Returns
+    -------
+    numpy.ndarray, shape (N,)
+
+    >>> z = hydrostatic_height([0.0, 1000.0], isa_density([0.0, 1000.0]))
+    >>> bool(abs(z[1] - 1000.0) < 0.5)
+    True
+    """
+    h = np.asarray(h, dtype=float)
+    rho = np.asarray(rho, dtype=float)
+    g = np.broadcast_to(np.asarray(g, dtype=float), h.shape)
+    out = np.full(h.shape, np.nan)
+    ok = np.flatnonzero(np.isfinite(h) & np.isfinite(rho) & (rho > 0))
+    if ok.size == 0:
+        return out
+    p = isa_pressure(h[ok])
+    dz = -(p[1:] - p[:-1]) / (0.5 * (rho[ok][1:] + rho[ok][:-1]) * 0.5 * (g[ok][1:] + g[ok][:-1]))
+    out[ok] = np.concatenate([[0.0], np.cumsum(dz)])
+    return out
 
 
 def density(pressure, temperature) -> np.ndarray:
