@@ -26,6 +26,7 @@ import numpy as np
 
 from simplexspline._workers import ignore_interrupts
 from simplexspline._files import jsonable
+from simplexspline.aero.data.atmosphere import hydrostatic_height
 from simplexspline.aero.data.adaptive_smoothing import smooth_by_maneuver
 from simplexspline.aero.data.coefficients import THRUST_COLUMNS, aerodynamic_coefficients
 from simplexspline.aero.data.flight_data import (
@@ -522,16 +523,23 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         z[:, jb] = 0.0                     # zero-mean pseudo-measurement (see observability)
         meas_std[jb] = s["beta_pseudo_std"]
     h = np.asarray(task["h"], dtype=float)
-    if present["gps_position"] and not present["gps_vertical"] and np.isfinite(h).any():
-        # GPS latitude and longitude only: the barometric altitude change stands in for the
-        # GPS altitude (its noise), or nothing ties the vertical motion and the angle-of-
-        # attack vane offset trades against it (in turbulence: offset errors of 0.016 rad
-        # on a 6-maneuver real-like record)
-        z[:, MEASUREMENT_NAMES.index("z_gps")] = -(h - h[np.flatnonzero(np.isfinite(h))[0]])
-        plan["wind"] += "; vertical motion from the barometric altitude (no GPS altitude)"
+    baro = present["gps_position"] and not present["gps_vertical"] and np.isfinite(h).any()
+    h_raw = h
     h = np.where(np.isfinite(h), h, np.nanmedian(h) if np.isfinite(h).any() else 0.0)
     earth = EarthModel(math.radians(s["latitude_deg"]), s["earth_rotation"])
     g = np.asarray(earth.gravity(h), dtype=float)
+    if baro:
+        # GPS latitude and longitude only: the barometric altitude change stands in for the
+        # GPS altitude (its noise), or nothing ties the vertical motion and the angle-of-
+        # attack vane offset trades against it (in turbulence: offset errors of 0.016 rad
+        # on a 6-maneuver real-like record); as a geometric height change (hydrostatic:
+        # a pressure altitude climbs T_ISA/T times faster than the aircraft)
+        rho = np.asarray(task.get("rho", np.full(n, np.nan)), dtype=float)
+        height = hydrostatic_height(h_raw, rho, g)
+        if not np.isfinite(height).any():
+            height = h_raw - h_raw[np.flatnonzero(np.isfinite(h_raw))[0]]
+        z[:, MEASUREMENT_NAMES.index("z_gps")] = -height
+        plan["wind"] += "; vertical motion from the barometric altitude (no GPS altitude)"
 
     q_model = np.zeros(NX)
     q_model[3:6] = ((s["velocity_model_noise"] if present["accelerometers"]
@@ -1198,7 +1206,7 @@ class Reconstruction:
         return "\n".join(lines)
 
 
-_EXTRA_COLUMNS = ("x_cg", "y_cg", "z_cg", *WIND_STATES)
+_EXTRA_COLUMNS = ("x_cg", "y_cg", "z_cg", "rho", *WIND_STATES)
 
 
 def _geometry(meta: Mapping) -> dict:
