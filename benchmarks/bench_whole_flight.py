@@ -23,6 +23,7 @@ Usage::
 
     python benchmarks/bench_whole_flight.py                         # 24 maneuvers, seed 1
     python benchmarks/bench_whole_flight.py --maneuvers 30 --variants excitation
+    python benchmarks/bench_whole_flight.py --aircraft c172p --seed 5 --installation
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from simplexspline.aero.derivatives import derivatives
 from simplexspline.sim import FlightProtocol, SensorModel, Wind, write_channel_record
 from simplexspline.sim.whole_flight import WholeFlight
 
-from bench_real_like import with_truth
+from bench_real_like import installation, with_truth
 
 COEF = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 TRUTH = ("alpha", "beta", "tas", *COEF)
@@ -205,11 +206,15 @@ def main() -> None:
                     help="comma-separated: excitation (no maneuver list), list")
     ap.add_argument("--keep", type=Path, default=None,
                     help="write the record into this new directory and keep it")
+    ap.add_argument("--installation", action="store_true",
+                    help="give the installation in the mapping file (vane positions and "
+                    "calibrations, IMU position; not the lags), as bench_real_like does")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     t0 = time.perf_counter()
+    sensors = SensorModel.real_like()
     flight = WholeFlight(args.aircraft, maneuvers=args.maneuvers, seed=args.seed,
-                         sensors=SensorModel.real_like(),
+                         sensors=sensors,
                          wind=Wind((5.0, 12.0), args.turbulence),
                          protocol=FlightProtocol(mix={"3211": 2, "doublet": 1,
                                                       "sum-of-sines": 1},
@@ -223,6 +228,9 @@ def main() -> None:
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         record = write_channel_record(df, args.keep or Path(tmp) / "record", rate_hz=10.0)
+        if args.installation:
+            mapping = record / "mapping.toml"
+            mapping.write_text(mapping.read_text() + "\n" + installation(sensors, False))
         spans = pd.read_csv(record / "maneuvers.csv")
         flown = list(zip(spans["start"], spans["end"]))
         for variant in args.variants.split(","):
@@ -230,7 +238,8 @@ def main() -> None:
     print(f"whole flight: {args.aircraft}, {len(flown)} maneuvers flown, seed {args.seed}, "
           f"{df.attrs['flight']['duration_s'] / 60:.1f} min airborne, legs "
           + ", ".join(f"{h:g} m/{v:g} m/s" for h, v in flight.legs)
-          + f"; SensorModel.real_like(), steady wind "
+          + f"; SensorModel.real_like() (installation "
+          + ("given" if args.installation else "not given") + "), steady wind "
           f"{math.hypot(*df.attrs['simulator']['wind']['drawn']['ned_mps'][:2]):.1f} m/s + "
           f"{args.turbulence} turbulence; simulated in {t_sim:.0f} s; CX includes thrust "
           "(no thrust channel), its truth too\n")

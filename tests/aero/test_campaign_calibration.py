@@ -11,6 +11,7 @@ from hypothesis import given, settings as hsettings, strategies as st
 
 from simplexspline.aero.reconstruction.campaign_calibration import (
     FALSE_ALARM,
+    OBSERVED,
     campaign_priors,
     combine_campaign,
     combine_estimates,
@@ -183,3 +184,20 @@ def test_an_outlier_gets_the_others_prior_and_an_unknown_constant_none():
     assert per == {0: {}, 1: {}} and "br" in campaign
     with pytest.raises(ValueError, match="informative"):
         campaign_priors(two, informative=0.0)
+
+
+def test_estimates_their_maneuvers_hardly_observe_are_not_combined():
+    """Five turns in turbulence, each barely informed beyond the prior (sigma 1.1-1.8 of
+    2.0) and each pulled the same way: counting the prior once would un-shrink them to
+    5 +- 0.8 (the truth being 0); the campaign keeps no value instead. A maneuver that
+    observes the constant (sigma at most half the prior's) still counts, alone."""
+    weak = [(3.77, 1.63, 2.0, 0), (2.92, 1.22, 2.0, 5), (3.16, 1.13, 2.0, 15),
+            (2.30, 1.81, 2.0, 16), (3.87, 1.66, 2.0, 18)]
+    value, _sd = _formula(weak, sd0=2.0)
+    assert value > 4.5                               # what un-shrinking would have given
+    combined, excluded = combine_campaign({"btas": weak})
+    assert combined["btas"] is None and not excluded
+    combined, _ = combine_campaign({"btas": weak + [(0.4, 0.3, 2.0, 7)]})
+    assert combined["btas"].used == (7,)
+    assert combined["btas"].value == pytest.approx(0.4)
+    assert OBSERVED == 0.5

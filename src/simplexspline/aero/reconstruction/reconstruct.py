@@ -1360,6 +1360,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         gps = turning
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
     results = _run_all(gps, s, workers, progress)
+
     def estimates(states) -> dict:
         return {k: [(*r["calibration"][k], r["maneuver"]) for r in results
                     if r["ok"] and k in r["calibration"]] for k in states}
