@@ -691,8 +691,9 @@ def test_a_maneuver_with_another_gyro_bias_keeps_its_own_and_is_named(turns_and_
         statement = r["observability"]["imu_biases"]
         if m == bad:
             assert abs(est - (true_r + 3e-3)) < max(3 * sd, 1e-4)
-            assert re.search(r"its own estimate from the filter's prior: its r bias lies "
-                             r"[\d.]+ sigma from the campaign's", statement)
+            assert statement == ("its own estimate from the filter's prior: it contradicts "
+                                 "the campaign's IMU biases")
+            assert re.match(r"r [\d.]+ sigma", r["observability"]["imu_conflict"])
         else:
             assert abs(est - true_r) < 3 * sd, (m, est, sd)
     # the straight maneuvers have the two good turns' prior; each good turn has only one
@@ -704,3 +705,5 @@ def test_a_maneuver_with_another_gyro_bias_keeps_its_own_and_is_named(turns_and_
         assert rec.maneuvers[m]["observability"]["imu_biases"] == \
             "the filter's prior (no campaign estimate)"
     assert f"maneuver {bad}'s estimate" in rec.summary()
+    assert re.search(rf"estimated from the filter's own prior in maneuver\(s\) {bad} "
+                     r"\(r [\d.]+ sigma", rec.summary())

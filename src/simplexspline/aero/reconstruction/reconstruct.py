@@ -636,11 +636,10 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         for k, (value, var) in own_prior.items():
             i = STATE_NAMES.index(k)
             initial.x[i], initial.P[i, i] = value, var
-        k, zk = max(conflict.items(), key=lambda kv: kv[1])
-        plan["imu_biases"] = (f"its own estimate from the filter's prior: its "
-                              f"{BIAS_STATES[k]} bias lies {zk:.1f} sigma from the campaign's "
-                              f"(a model error in this maneuver, such as turbulence taken for "
-                              f"still air, a glitch or another IMU, if far)")
+        plan["imu_biases"] = ("its own estimate from the filter's prior: it contradicts the "
+                              "campaign's IMU biases")
+        plan["imu_conflict"] = ", ".join(f"{BIAS_STATES[k]} {z:.1f} sigma" for k, z in
+                                         sorted(conflict.items(), key=lambda kv: -kv[1]))
         gusts = choose()
     out = gusts.out
     if gusts.std > 0:
@@ -715,7 +714,8 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         for j, c in enumerate(WIND_STATES):       # steady wind plus gusts
             states[c] = xs[:, 18 + j] + xs[:, GUST.start + j]
     lags = _lag_estimates(xs, z, arm, dt, plan) if s["estimate_lags"] else {}
-    observability = {k: plan[k] for k in ("beta", "psi", "wind", "forces", "imu_biases")}
+    observability = {k: plan[k] for k in ("beta", "psi", "wind", "forces", "imu_biases",
+                                          "imu_conflict") if k in plan}
     return {"maneuver": man, "ok": True, "states": states, "biases": biases,
             "held": held, "weak": weak, "observability": observability, "lags": lags,
             "innovations": stats, "skipped": skipped,
@@ -1169,6 +1169,15 @@ class Reconstruction:
             for k, (value, sd) in self.imu_calibration.items():
                 lines.append(f"  {BIAS_STATES[k]} bias: campaign estimate {value:.4g} +- "
                              f"{sd:.2g} (each maneuver's prior)")
+            conflicts = {m: r["observability"]["imu_conflict"]
+                         for m, r in sorted(self.maneuvers.items())
+                         if "imu_conflict" in r["observability"]}
+            if conflicts:
+                lines.append("  IMU biases: contradicting the campaign's, so estimated from the "
+                             "filter's own prior in maneuver(s) " + "; ".join(
+                                 f"{m} ({why})" for m, why in conflicts.items())
+                             + " (a model error there if far: turbulence taken for still air, "
+                             "a glitch, another IMU)")
             for k, out in self.calibration_excluded.items():
                 for m, (value, sd, z) in sorted(out.items()):
                     lines.append(f"  {k}: maneuver {m}'s estimate {value:.4g} +- {sd:.2g} "
