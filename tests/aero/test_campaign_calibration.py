@@ -16,6 +16,7 @@ from simplexspline.aero.reconstruction.campaign_calibration import (
     combine_campaign,
     combine_estimates,
     outlier_threshold,
+    prior_conflicts,
     spread_between,
 )
 
@@ -201,3 +202,18 @@ def test_estimates_their_maneuvers_hardly_observe_are_not_combined():
     assert combined["btas"].used == (7,)
     assert combined["btas"].value == pytest.approx(0.4)
     assert OBSERVED == 0.5
+
+
+def test_a_posterior_that_left_its_prior_too_far_is_a_conflict():
+    """The shift of the posterior mean from the prior's has the variance prior - posterior:
+    a shift of 1.2 of its sigmas is consistent, 10 is not (the cut for two constants at 1 %:
+    2.81); a prior the data did not narrow cannot conflict."""
+    prior = {"br": (1.8e-4, 2e-5), "bp": (3.5e-4, 2e-5)}
+    var = (2e-5) ** 2 - (1e-5) ** 2                     # prior minus posterior variance
+    post = {"br": (1.8e-4 + 2e-5, (1e-5) ** 2),
+            "bp": (3.5e-4 + 10 * math.sqrt(var), (1e-5) ** 2)}
+    assert outlier_threshold(2) == pytest.approx(2.807, abs=1e-3)
+    found = prior_conflicts(post, prior)
+    assert set(found) == {"bp"} and found["bp"] == pytest.approx(10.0)
+    assert prior_conflicts({"br": (5.0, (2e-5) ** 2)}, {"br": (0.0, 2e-5)}) == {}
+    assert prior_conflicts({}, {}) == {}

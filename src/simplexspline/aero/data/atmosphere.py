@@ -112,8 +112,9 @@ def hydrostatic_height(h, rho, g=G0) -> np.ndarray:
     ok = np.flatnonzero(np.isfinite(h) & np.isfinite(rho) & (rho > 0))
     if ok.size == 0:
         return out
-    p = isa_pressure(h[ok])
-    dz = -(p[1:] - p[:-1]) / (0.5 * (rho[ok][1:] + rho[ok][:-1]) * 0.5 * (g[ok][1:] + g[ok][:-1]))
+    p, r, gg = isa_pressure(h[ok]), rho[ok], g[ok]
+    # each step's pressure drop over the density and gravity at its middle
+    dz = -np.diff(p) / (0.25 * (r[1:] + r[:-1]) * (gg[1:] + gg[:-1]))
     out[ok] = np.concatenate([[0.0], np.cumsum(dz)])
     return out
 

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 from statistics import NormalDist
 
 __all__ = ["FALSE_ALARM", "OBSERVED", "CombinedEstimate", "campaign_priors", "combine_campaign",
-           "combine_estimates", "outlier_threshold", "spread_between"]
+           "combine_estimates", "outlier_threshold", "prior_conflicts", "spread_between"]
 
 #: Chance that an honest campaign loses an estimate (a Bonferroni bound over its constants
 #: and their estimates).
@@ -255,3 +255,37 @@ def campaign_priors(estimates: dict, informative: float = 0.5) -> tuple[dict, di
             if sd < limit:
                 mine[k] = (value, sd)
     return campaign, per_maneuver, excluded
+
+
+def prior_conflicts(posterior: dict, prior: dict) -> dict:
+    """Constants whose estimate moved further from their (campaign) prior than the prior and
+    the data allow.
+
+    Under a consistent model the shift of a constant's posterior mean from its prior mean
+    has the variance ``prior - posterior``; a shift beyond :func:`outlier_threshold` of
+    the constants (1 % false alarms over them) is a conflict.
+
+    Parameters
+    ----------
+    posterior : dict of str to (float, float)
+        Constant -> (value, variance) at the end of the maneuver.
+    prior : dict of str to (float, float)
+        Constant -> (value, sigma) the maneuver started from.
+
+    Returns
+    -------
+    dict of str to float
+        Constant -> its shift in sigmas, for the conflicts only.
+    """
+    if not prior:
+        return {}
+    limit = outlier_threshold(len(prior))
+    found = {}
+    for k, (value, sd) in prior.items():
+        x, var = posterior[k]
+        spread = sd ** 2 - var
+        if spread > 0 and math.isfinite(x) and math.isfinite(var):
+            z = abs(x - value) / math.sqrt(spread)
+            if z > limit:
+                found[k] = float(z)
+    return found

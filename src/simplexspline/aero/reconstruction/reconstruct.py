@@ -36,7 +36,7 @@ from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
 from simplexspline.aero.reconstruction.campaign_calibration import (campaign_priors,
                                                                      combine_campaign,
-                                                                     outlier_threshold)
+                                                                     prior_conflicts)
 from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
@@ -919,27 +919,11 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
 # ----------------------------------------------------------------------------- campaign
 
 def _prior_conflict(out: dict, prior: Mapping) -> dict:
-    """States whose estimate moved further from their campaign prior than the prior and
-    the data allow: state -> z, for those beyond
-    :func:`~simplexspline.aero.reconstruction.campaign_calibration.outlier_threshold`
-    (1 % false alarms over the states). Under a consistent model the shift of a constant's
-    estimate from its prior mean has the variance ``prior - posterior``.
-    """
-    if not prior:
-        return {}
+    """:func:`~simplexspline.aero.reconstruction.campaign_calibration.prior_conflicts` of
+    the filter's final estimate of the states with a campaign prior."""
     x, P = out["x_filt"][-1], out["P_filt"][-1]
-    if not (np.isfinite(x).all() and np.isfinite(P).all()):
-        return {}
-    limit = outlier_threshold(len(prior))
-    found = {}
-    for k, (value, sd) in prior.items():
-        i = STATE_NAMES.index(k)
-        spread = sd ** 2 - P[i, i]
-        if spread > 0:
-            z = abs(x[i] - value) / math.sqrt(spread)
-            if z > limit:
-                found[k] = float(z)
-    return found
+    return prior_conflicts({k: (float(x[i]), float(P[i, i])) for k in prior
+                            for i in (STATE_NAMES.index(k),)}, prior)
 
 
 #: Lags [s] above this (and 3 sigma) count even when below half a sample.
