@@ -498,6 +498,30 @@ def test_fuel_used_summed_over_engines(tmp_path, imported):
     assert not np.allclose(result.data["mass"], result.data["mass"].iloc[0])
 
 
+def test_engine_channels_fuel_flow_summed_and_fan_speed_averaged(tmp_path, imported):
+    """A twin-jet record logs fuel flow (lbs/hr) and N1 (%) per engine: the fuel flows
+    are summed into ``fuel_flow`` [kg/s], the fan speeds averaged into ``n1`` [-]."""
+    for f in DATA.iterdir():
+        if f.is_file():
+            shutil.copy(f, tmp_path / f.name)
+    t = np.loadtxt(DATA / "vane_aoa.txt", skiprows=1)[:, 0]
+    left, right = 1400.0 + 50.0 * np.sin(t / 30.0), 1500.0 + 0 * t     # lbs/hr
+    n1l, n1r = 80.0 + 5.0 * np.sin(t / 30.0), 84.0 + 0 * t             # %
+    for name, v in (("lh_engine_FMF", left), ("rh_engine_FMF", right),
+                    ("lh_engine_fan_N1", n1l), ("rh_engine_fan_N1", n1r)):
+        np.savetxt(tmp_path / f"{name}.txt", np.c_[t, v], header=f"time {name}", comments="")
+    with open(tmp_path / "mapping.toml", "a") as f:
+        f.write('\n[channels.fuel_flow]\nsource = ["lh_engine_FMF", "rh_engine_FMF"]\n'
+                'unit = "lb/hour"\n'
+                '\n[channels.n1]\nsource = ["lh_engine_fan_N1", "rh_engine_fan_N1"]\n'
+                'unit = "percent"\n')
+    d = import_record(tmp_path / "mapping.toml").data
+    tt = d["t_record"].to_numpy()
+    expect_ff = (np.interp(tt, t, left) + 1500.0) * LB / 3600.0
+    np.testing.assert_allclose(d["fuel_flow"], expect_ff, rtol=1e-9)
+    np.testing.assert_allclose(d["n1"], (np.interp(tt, t, n1l) + 84.0) / 200.0, rtol=1e-9)
+
+
 @pytest.mark.parametrize("entry, message", [
     ('alpha = { source = ["a1", "a2"], unit = "deg" }', "'alpha' cannot be a sum"),
     ('fuel_used = { source = [], unit = "lb" }', "list of distinct channel names"),

@@ -203,10 +203,14 @@ FINGERPRINTS = {
 }
 
 
+#: Columns added after the fingerprints were taken (read from JSBSim, changing no other).
+_NEWER = ("maneuver_type", "fuel_flow", "n1")
+
+
 def _fingerprint(df: pd.DataFrame) -> str:
     h = hashlib.sha256()
     for c in df.columns:
-        if c != "maneuver_type":
+        if c not in _NEWER:
             h.update(c.encode())
             h.update(np.ascontiguousarray(df[c].to_numpy()).tobytes())
     return h.hexdigest()

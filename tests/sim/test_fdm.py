@@ -55,3 +55,33 @@ def test_quiet_scratch_restores_streams(capfd):
     print("shown")
     out, _ = capfd.readouterr()
     assert out == "shown\n"
+
+
+def test_engine_channels_fuel_flow_and_fan_speed():
+    """The recorder reads what a real installation's engine channels show: the total fuel
+    flow of all engines and the mean fan speed N1 of turbines (NaN for a piston). The thrust
+    per fuel flow lands where engines of each kind have it."""
+    for aircraft, fan, per_fuel in (("f16", True, (2e4, 8e4)),
+                                    ("global5000", True, (2e4, 8e4)),
+                                    ("c172p", False, (5e4, 5e5))):
+        prof = get_aircraft(aircraft)
+        with fdm_module.quiet_scratch():
+            fdm = fdm_module.trim_fdm(prof, prof.altitudes_m[0], prof.airspeeds_mps[-1])
+            rec = fdm_module.Recorder(fdm, prof)
+            fdm.run()
+            s = rec.sample()
+        idx = fdm_module.IDX
+        assert len(s) == len(idx)
+        fuel = s[idx["engines/fuel-flow-pps"]] * 0.45359237            # kg/s
+        thrust = s[idx["forces/fbx-prop-lbs"]] * 4.4482216152605       # N
+        assert fuel > 0 and per_fuel[0] < thrust / fuel < per_fuel[1], (aircraft, thrust / fuel)
+        n1 = s[idx["engines/n1-pct"]]
+        assert (30.0 < n1 < 110.0) if fan else np.isnan(n1), (aircraft, n1)
+
+
+def test_campaign_columns_hold_the_engine_channels(f16_ideal):
+    assert (f16_ideal["fuel_flow"] > 0).all()
+    assert f16_ideal["n1"].between(0.3, 1.1).all()
+    # the fuel flow follows the throttle: thrust per fuel flow stays within a factor of 2
+    ratio = f16_ideal["thrust_x"] / f16_ideal["fuel_flow"]
+    assert ratio.max() / ratio.min() < 2.0

@@ -48,6 +48,12 @@ def test_files_units_and_missing_channels(record, global5000_ideal):
     fuel = _channel(record, "fuel_used")[:, 1]
     starts = [np.searchsorted(aoa[:, 0], s - 1e-6) for s in spans["start"]]
     assert fuel[0] == 0.0 and np.all(np.diff(fuel[starts]) >= 0)  # fuel is burnt
+    flow, n1 = _channel(record, "fuel_flow"), _channel(record, "n1")   # lbs/hr and %
+    for _, s in spans.iterrows():
+        m = global5000_ideal[global5000_ideal["maneuver"] == s["maneuver"]].iloc[::10]
+        k = (flow[:, 0] >= s["start"] - 1e-6) & (flow[:, 0] <= s["end"] + 1e-6)
+        assert np.allclose(flow[k, 1] * LB / 3600.0, m["fuel_flow"], rtol=1e-7)
+        assert np.allclose(n1[k, 1] / 100.0, m["n1"], rtol=1e-7)
 
 
 def test_indicated_airspeed_inverts_to_the_true_airspeed(record):

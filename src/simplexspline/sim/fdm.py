@@ -18,8 +18,8 @@ from simplexspline.errors import InputError, SimulationError
 from simplexspline.sim.aircraft import AircraftProfile
 from simplexspline.sim.units import FT, KT
 
-__all__ = ["LATITUDE_DEG", "LONGITUDE_DEG", "load_jsbsim", "quiet_scratch", "create_fdm", "trim_fdm", "set_wind", "RECORD",
-           "Recorder"]
+__all__ = ["ENGINE_RECORD", "IDX", "LATITUDE_DEG", "LONGITUDE_DEG", "load_jsbsim",
+           "quiet_scratch", "create_fdm", "trim_fdm", "set_wind", "RECORD", "Recorder"]
 
 #: Properties read after every ``run()`` (one 100 Hz sample), in JSBSim units. After
 #: ``run()`` JSBSim's state, forces, moments and accelerations all refer to the same
@@ -54,18 +54,23 @@ RECORD: tuple[str, ...] = (
     # ISA's (geopotential) at 7 km, and the ISA pressure of it is 0.11 % low (0.3 % at 11 km)
     "atmosphere/P-psf",
 )
-#: JSBSim models switched off after the trim because they contribute exactly nothing here
-#: (outputs stay bit-identical; a step gets about 40 % cheaper): ground reactions are zero
-#: airborne with the gear up (kept data stay above ``Envelope.h_min``), and there is no
-#: socket input, no output, no buoyancy and no external force.
 #: Where the simulated flights start (geodetic latitude, longitude [deg]); written into the
 #: metadata as ``latitude_deg`` for the reconstruction's Earth model.
 LATITUDE_DEG, LONGITUDE_DEG = 52.0, 4.4
 
+#: JSBSim models switched off after the trim because they contribute exactly nothing here
+#: (outputs stay bit-identical; a step gets about 40 % cheaper): ground reactions are zero
+#: airborne with the gear up (kept data stay above ``Envelope.h_min``), and there is no
+#: socket input, no output, no buoyancy and no external force.
 IDLE_MODELS = ("FGGroundReactions", "FGInput", "FGOutput", "FGBuoyantForces",
                "FGExternalReactions")
-#: Index of each recorded property.
-IDX = {name: i for i, name in enumerate(RECORD)}
+#: Engine quantities recorded after :data:`RECORD`, aggregated over the profile's engines
+#: (one per throttle): the total fuel flow (``propulsion/engine[i]/fuel-flow-rate-pps``
+#: summed) [lb/s] and the mean fan speed (``propulsion/engine[i]/n1``) [%], NaN for engines
+#: without one (pistons). What a real installation's engine channels show.
+ENGINE_RECORD: tuple[str, ...] = ("engines/fuel-flow-pps", "engines/n1-pct")
+#: Index of each recorded quantity in a sample.
+IDX = {name: i for i, name in enumerate(RECORD + ENGINE_RECORD)}
 
 
 def load_jsbsim():
@@ -262,10 +267,19 @@ class Recorder:
         ]
         self.flap_read = (node(profile.flap_property).get_double_value
                           if profile.flap_property else None)
+        engines = [f"propulsion/engine[{i}]" for i in range(len(profile.throttles))]
+        fuel = [node(f"{e}/fuel-flow-rate-pps").get_double_value for e in engines]
+        fans = [pm.get_node(f"{e}/n1").get_double_value for e in engines
+                if pm.hasNode(f"{e}/n1")]
+        nan = float("nan")
 
         reads = self._read
-        self.sample = lambda: [f() for f in reads]
+        if fans:
+            self.sample = lambda: [*(f() for f in reads), sum(f() for f in fuel),
+                                   sum(f() for f in fans) / len(fans)]
+        else:
+            self.sample = lambda: [*(f() for f in reads), sum(f() for f in fuel), nan]
 
     def sample(self) -> list[float]:  # replaced per instance by a closure (faster)
-        """Current values of :data:`RECORD`, in JSBSim units."""
-        return [f() for f in self._read]
+        """Current values of :data:`RECORD` and :data:`ENGINE_RECORD`, in JSBSim units."""
+        raise NotImplementedError

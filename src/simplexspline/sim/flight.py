@@ -17,7 +17,7 @@ from simplexspline.aero.data.atmosphere import pressure_altitude
 from simplexspline.errors import SimulationError
 from simplexspline.sim import units as u
 from simplexspline.sim.aircraft import AircraftProfile, Envelope
-from simplexspline.sim.fdm import IDX, RECORD, Recorder, quiet_scratch, set_wind, trim_fdm
+from simplexspline.sim.fdm import IDX, Recorder, quiet_scratch, set_wind, trim_fdm
 from simplexspline.sim.maneuvers import LEAD_S, excitation
 from simplexspline.sim.pilot import (Actuator, AircraftState, Airframe, Pilot, PilotStyle,
                                      Turn)
@@ -221,7 +221,7 @@ class FlightLoop:
         self.airframe = Airframe.of(profile, self.geometry)
         # flat float buffers: one extend per sample is cheaper than a list of lists
         self.rows, self.surf = array("d"), array("d")
-        self.width = len(RECORD)
+        self.width = len(IDX)
 
     def start(self) -> list:
         """The first ``run()`` after the trim; returns the first sample."""
@@ -258,7 +258,7 @@ class FlightLoop:
                 "phi": 0.7 * env.phi_max}
 
     def raw(self) -> np.ndarray:
-        """Every recorded sample, (n, len(RECORD)), JSBSim units."""
+        """Every recorded sample, (n, len(IDX)), JSBSim units."""
         return np.frombuffer(self.rows, dtype=float).reshape(-1, self.width)
 
     def surfaces(self) -> np.ndarray:
@@ -427,7 +427,11 @@ def schema_columns(raw: np.ndarray, surf: np.ndarray, geometry: tuple, spec: dic
         "thrust_n": col["moments/n-prop-lbsft"] * u.LBF_FT,
         "flap": surf[:, 3] * spec["profile"]["flap_scale"],
         "condition": np.full(n, spec["condition"], dtype=np.int64),
+        "fuel_flow": col["engines/fuel-flow-pps"] * u.LB,
     })
+    n1 = col["engines/n1-pct"] / 100.0
+    if np.isfinite(n1).all():  # turbines (a piston engine has no fan)
+        out["n1"] = n1
     if cg is not None:
         out.update(x_cg=cg[:, 0], y_cg=cg[:, 1], z_cg=cg[:, 2])
     for ch, x in true.items():

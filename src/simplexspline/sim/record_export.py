@@ -6,7 +6,8 @@ ground segments, and writes one text file per channel (``time value`` per line, 
 aviation units, with the gaps of a real instrumentation package: no sideslip vane, an empty
 heading channel, GPS latitude and longitude only (no GPS velocities), indicated airspeed
 and static air temperature instead of true airspeed and density, the normal load factor
-instead of the body z specific force, fuel used instead of mass. Beside the channels:
+instead of the body z specific force, fuel used instead of mass, and the engines' fuel flow
+and fan speed N1 (when the campaign holds them) but no thrust. Beside the channels:
 ``maneuvers.csv`` (start, end, type of every maneuver on the record's clock),
 ``mapping.toml`` (the mapping file of ``simplexspline import``) and ``truth.csv`` (the
 simulator's truth at the same instants, SI units and schema names, for checking an
@@ -48,11 +49,15 @@ RECORD_CHANNELS: dict[str, tuple[str, str, str]] = {
     "delta_a": ("da", "deg", "aileron"),
     "delta_r": ("dr", "deg", "rudder"),
     "fuel_used": ("mass", "lb", "fuel used since the start of the record"),
+    "fuel_flow": ("fuel_flow", "lb/hour", "fuel flow, all engines"),
+    "n1": ("n1", "percent", "fan speed N1, mean of the engines (turbines only)"),
     "gps_lat": ("x_gps", "deg", "GPS latitude"),
     "gps_lon": ("y_gps", "deg", "GPS longitude"),
 }
 _BLENDED = ("alpha", "tas", "mach", "h", "rho", "p", "q", "r", "phi", "theta", "ax", "ay",
             "az", "de", "da", "dr", "vn_gps", "ve_gps", "mass")
+#: Engine channels written when the campaign holds them (older campaigns do not).
+_ENGINE = ("fuel_flow", "n1")
 _LB = 0.45359237  # kg per pound (exact)
 _LAT0, _LON0 = math.radians(52.0), math.radians(4.4)
 _T0_RECORD = 1000.0  # the recorder's clock does not start at zero
@@ -134,7 +139,7 @@ def _joined(df, rate_hz: float, transition_s: float, ground_s: float):
     truth_cols = [c for c in df.columns if c.startswith("true_")]
     n_blend = int(round(transition_s * rate_hz))
     w = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, n_blend + 2)[1:-1])
-    names = _BLENDED + tuple(truth_cols)
+    names = _BLENDED + tuple(c for c in _ENGINE if c in df.columns) + tuple(truth_cols)
     blocks, spans, start = [], [], 0
     n_ground = int(round(ground_s * rate_hz))
     lowest = min(float(np.nanmin(g["h"].to_numpy(dtype=float))) for g, _ in pieces)
@@ -183,7 +188,8 @@ def _position(vn, ve, rate_hz: float):
     return lat, _LON0 + np.concatenate([[0.0], np.cumsum(east / (r_e * np.cos(mid)))])
 
 
-def _mapping(meta: dict, rate_hz: float, ramp_kg: float, radii: dict) -> str:
+def _mapping(meta: dict, rate_hz: float, ramp_kg: float, radii: dict,
+             engine: tuple = ()) -> str:
     lines = [
         "# Mapping of a simulated real-format record (simplexspline.sim.record_export) to the",
         "# flight-data schema, for `simplexspline import`. Units are pint strings.",
@@ -221,6 +227,7 @@ def _mapping(meta: dict, rate_hz: float, ramp_kg: float, radii: dict) -> str:
         'da = { source = "delta_a", unit = "deg" }',
         'dr = { source = "delta_r", unit = "deg" }',
         'fuel_used = { source = "fuel_used", unit = "lb" }',
+        *(f'{c} = {{ source = "{c}", unit = "{RECORD_CHANNELS[c][1]}" }}' for c in engine),
         'lat = { source = "gps_lat", unit = "deg" }',
         'lon = { source = "gps_lon", unit = "deg" }',
         "",
@@ -317,6 +324,11 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
         "fuel_used": (ramp - cols["mass"]) / _LB,
         "gps_lat": np.degrees(lat), "gps_lon": np.degrees(lon),
     }
+    engine = tuple(c for c in _ENGINE if c in cols)
+    if "fuel_flow" in cols:
+        values["fuel_flow"] = cols["fuel_flow"] / _LB * 3600.0
+    if "n1" in cols:
+        values["n1"] = cols["n1"] * 100.0
     first = df.groupby("maneuver").head(1)
     radii = {a: float(np.sqrt((first[f"I{a * 2}"] / first["mass"]).mean())) for a in "xyz"}
     files = {}
@@ -326,7 +338,7 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
     files["heading.txt"] = ""  # the channel exists but failed
     files["maneuvers.csv"] = "start,end,type,maneuver\n" + "".join(
         f"{t[a]:.2f},{t[b]:.2f},{typ},{m}\n" for a, b, typ, m in spans)
-    files["mapping.toml"] = _mapping(df.attrs, float(rate_hz), ramp, radii)
+    files["mapping.toml"] = _mapping(df.attrs, float(rate_hz), ramp, radii, engine)
     stacked = np.column_stack([t] + [cols[c] for c in truth_cols] + [cols["mass"]])
     files["truth.csv"] = "\n".join(
         ["t_record," + ",".join(c[5:] for c in truth_cols) + ",mass"]

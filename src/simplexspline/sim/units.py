@@ -24,5 +24,7 @@ PSF = LBF / FT**2
 IN = 0.0254
 #: m/s per knot (exact).
 KT = 1852.0 / 3600.0
+#: kilograms per pound (mass, exact).
+LB = 0.45359237
 #: standard gravity [m/s^2] (used only to express load factors).
 G0 = 9.80665

@@ -37,7 +37,7 @@ from simplexspline.aero.data.flight_data import FLIGHT_DATA_COLUMNS
 from simplexspline.aero.data.units import UnitError, conversion, quantity
 from simplexspline.errors import InputError
 
-__all__ = ["AUXILIARY_CHANNELS", "FORMATS", "SEGMENT_METHODS", "SUMMABLE", "ChannelMap",
+__all__ = ["AUXILIARY_CHANNELS", "AVERAGED", "FORMATS", "SEGMENT_METHODS", "SUMMABLE", "ChannelMap",
            "AircraftSpec", "RecordSpec", "SegmentSpec", "ImportMapping", "read_mapping",
            "MappingError"]
 
@@ -63,8 +63,10 @@ AUXILIARY_CHANNELS: dict[str, tuple[str, str]] = {
 _TARGETS = {n: s.unit for n, s in FLIGHT_DATA_COLUMNS.items()
             if s.kind == "float" and not n.startswith("true_") and n != "t"}
 #: Columns that may be the sum of several channels (one per engine).
-SUMMABLE = ("fuel_used", "thrust_x", "thrust_y", "thrust_z", "thrust_l", "thrust_m",
-            "thrust_n")
+SUMMABLE = ("fuel_used", "fuel_flow", "thrust_x", "thrust_y", "thrust_z", "thrust_l",
+            "thrust_m", "thrust_n")
+#: Columns that may be the mean of several channels (one per engine).
+AVERAGED = ("n1",)
 FORMATS = ("channels", "csv", "mat", "parquet")
 SEGMENT_METHODS = ("auto", "list", "excitation", "airborne")
 
@@ -81,7 +83,8 @@ class ChannelMap:
         Channel name in the record (file stem or column); ``sources`` when several.
     sources : tuple of str
         The record's channels whose converted values are summed into the target (one
-        per engine for fuel used, for example); ``(source,)`` for a single channel.
+        per engine for fuel used or fuel flow, for example; averaged for the fan speed
+        ``n1``); ``(source,)`` for a single channel.
     unit : str
         Pint unit string of the source.
     sign : float
@@ -429,9 +432,10 @@ def _channel(path: Path, text: str, target: str, entry) -> ChannelMap:
                 or len(set(many)) != len(many):
             r.fail("source", f"must be a channel name or a list of distinct channel names "
                    f"(summed, e.g. fuel used per engine), got {many!r}")
-        if target not in SUMMABLE:
+        if target not in SUMMABLE + AVERAGED:
             r.fail("source", f"{target!r} cannot be a sum of channels; a list of sources "
-                   f"(summed, one per engine) is for {', '.join(SUMMABLE)}")
+                   f"(one per engine) is summed for {', '.join(SUMMABLE)} and averaged "
+                   f"for {', '.join(AVERAGED)}")
         sources = tuple(many)
         source = " + ".join(sources)
     else:

@@ -28,7 +28,7 @@ from simplexspline.aero.data.flight_data import (
     SCHEMA_VERSION,
     SENSOR_COLUMNS,
 )
-from simplexspline.aero.data.mapping import ImportMapping, read_mapping
+from simplexspline.aero.data.mapping import AVERAGED, ImportMapping, read_mapping
 from simplexspline.aero.data.records import read_channels
 from simplexspline.aero.data.sanity import SanityReport, check_record
 from simplexspline.aero.data.time_base import clean_time_stamps, common_grid, resample
@@ -274,9 +274,10 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
         clean[target] = parts
     grid = common_grid([c for parts in clean.values() for c in parts], rec.output_rate_hz)
     dt = float(grid[1] - grid[0]) if grid.size > 1 else 1.0
-    # several sources (one per engine) are summed on the common time base
+    # several sources (one per engine) are summed on the common time base (the fan speed
+    # averaged)
     cols = {k: sum(resample(c, grid, wrap=k in _WRAPPING) for c in parts)
-            for k, parts in clean.items()}
+            / (len(parts) if k in AVERAGED else 1) for k, parts in clean.items()}
     found = [k for k in m.channels if k in cols]
     derived = {}
     _derive(cols, m, derived)
