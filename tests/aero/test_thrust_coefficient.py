@@ -1,12 +1,14 @@
 """The thrust coefficient tc = T / (qbar S): derived where the data hold the thrust, and a
-power effect (elevator effectiveness growing with the slipstream) found by the search."""
+power effect (elevator effectiveness growing with the slipstream) found by the search.
+Without the thrust, its stand-in from the fuel flow, tc_ff, lets CX (which then holds the
+thrust) follow the throttle."""
 
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
 
-from simplexspline.aero.data.thrust_coefficient import thrust_coefficient
+from simplexspline.aero.data.thrust_coefficient import SPECIFIC_THRUST, thrust_coefficient
 from simplexspline.aero.modelling.auto import AUTO_PRESET, restrict_to_data
 from simplexspline.aero.selection.search import SelectionSettings, fit_structure, \
     select_structure
@@ -25,6 +27,91 @@ def test_no_thrust_no_thrust_coefficient():
     assert thrust_coefficient(df, {"S": 16.2}) == {}                     # all NaN: absent
     assert thrust_coefficient(df.drop(columns="thrust_x"), {"S": 16.2}) == {}
     assert thrust_coefficient(df.assign(thrust_x=1.0), {}) == {}         # no wing area
+
+
+def test_without_thrust_the_fuel_flow_stands_in():
+    df = pd.DataFrame({"fuel_flow": [0.5, 0.2, np.nan], "rho": [1.2, 1.0, 0.5],
+                       "tas": [150.0, 140.0, 200.0]})
+    tc = thrust_coefficient(df, {"S": 30.0})
+    qbar = 0.5 * df["rho"] * df["tas"] ** 2
+    assert list(tc) == ["tc_ff"]
+    np.testing.assert_allclose(tc["tc_ff"], df["fuel_flow"] * SPECIFIC_THRUST / (qbar * 30.0),
+                               rtol=1e-15)
+    both = thrust_coefficient(df.assign(thrust_x=1.0e4), {"S": 30.0})
+    assert list(both) == ["tc"]                       # the thrust itself wins
+    no_thrust = df.assign(thrust_x=np.nan)            # a thrust column that is all NaN
+    assert list(thrust_coefficient(no_thrust, {"S": 30.0})) == ["tc_ff"]
+    assert thrust_coefficient(df.assign(fuel_flow=np.nan), {"S": 30.0}) == {}
+
+
+def _thrust_in_cx(samples: int, dt: float, seed: int = 11) -> tuple[dict, dict]:
+    """CX with the thrust in it (no thrust channel) over 20 test points of ``samples``
+    samples ``dt`` apart: each point flies its own throttle, and the thrust per fuel flow
+    grows with Mach (a jet). Returns the candidate columns and y, truth, maneuver."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(samples) * dt
+    names = ("alpha", "mach", "de", "qhat", "tc_ff", "y", "truth", "man")
+    cols = {k: [] for k in names}
+    for m in range(20):
+        def wave(amp, centre=0.0):
+            f, ph = rng.uniform(0.1, 1.0, 3), rng.uniform(0, 2 * np.pi, 3)
+            return centre + amp * np.sin(2 * np.pi * f[:, None] * t + ph[:, None]).sum(0) / 3
+
+        alpha = wave(0.03, rng.uniform(0.0, 0.1))
+        de, qhat = wave(0.05, rng.uniform(-0.05, 0.0)), wave(0.004)
+        mach = np.full_like(t, rng.uniform(0.3, 0.7)) + wave(0.01)
+        rho = rng.uniform(0.6, 1.2)
+        qbar_s = 0.5 * rho * (mach * 330.0) ** 2 * 30.0
+        fuel_flow = rng.uniform(0.1, 0.6) + wave(0.02)                # throttle per point
+        thrust = fuel_flow * 3.5e4 * (1.0 + 0.5 * mach)
+        tc_ff = fuel_flow * SPECIFIC_THRUST / qbar_s
+        truth = -0.03 + 0.3 * alpha + 2.0 * alpha ** 2 - 0.01 * de + thrust / qbar_s
+        for k, v in (("alpha", alpha), ("mach", mach), ("de", de), ("qhat", qhat),
+                     ("tc_ff", tc_ff), ("truth", truth),
+                     ("y", truth + 1e-3 * rng.standard_normal(len(t))),
+                     ("man", np.full(len(t), m))):
+            cols[k].append(v)
+    d = {k: np.concatenate(v) for k, v in cols.items()}
+    return {k: d[k] for k in ("alpha", "mach", "de", "qhat", "tc_ff")}, d
+
+
+def test_thrust_in_cx_follows_the_fuel_flow():
+    """Offered tc_ff, the default search takes it into CX and reaches the noise; without
+    it the throttle's share of CX is unexplained."""
+    data, d = _thrust_in_cx(400, 0.05)
+    settings = SelectionSettings(max_rounds=4, max_samples=20_000)
+    errors = {}
+    for offered in (True, False):
+        cols_ = data if offered else {k: v for k, v in data.items() if k != "tc_ff"}
+        start, _ = restrict_to_data(AUTO_PRESET["CX"], cols_)
+        best, _history = select_structure(start, cols_, d["y"], d["man"], settings)
+        model = fit_structure(best, cols_, d["y"], settings)
+        errors[offered] = float(np.sqrt(np.mean((model.predict(cols_) - d["truth"]) ** 2)))
+        if offered:
+            assert "tc_ff" in best.inputs, best.label()
+    assert errors[True] < 1e-3 < errors[False] / 3, errors
+
+
+def test_the_size_budget_counts_the_time_flown_not_the_samples():
+    """20 test points of 18 s at 10 Hz: 3600 samples allow 180 coefficients at 20 samples
+    each, the size of CX's starting structure, so the search cannot add tc_ff to it (only
+    after shrinking it, if ever); counted as 360 s of data at 0.4 s each (900
+    coefficients) it adds tc_ff in the first round, and reaches the noise."""
+    data, d = _thrust_in_cx(180, 0.1, seed=3)
+    settings = SelectionSettings(max_rounds=3, max_samples=20_000)
+    start, _ = restrict_to_data(AUTO_PRESET["CX"], data)
+    assert start.size() >= len(d["y"]) / settings.samples_per_coefficient
+
+    def first_round(history):
+        return {t.move: t.accepted for t in history if t.round == 1}
+
+    _, history = select_structure(start, data, d["y"], d["man"], settings)
+    assert not any(m.startswith("add multiplier") for m in first_round(history))
+    by_time, history = select_structure(start, data, d["y"], d["man"], settings,
+                                        duration_s=len(d["y"]) * 0.1)
+    assert first_round(history)["add multiplier tc_ff"]
+    model = fit_structure(by_time, data, d["y"], settings)
+    assert np.sqrt(np.mean((model.predict(data) - d["truth"]) ** 2)) < 1.5e-3
 
 
 def test_search_finds_a_power_effect_on_the_elevator():

@@ -26,7 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline.aero.data.angle_rates import ANGLE_RATE_NAMES, angle_rates
-from simplexspline.aero.data.thrust_coefficient import THRUST_COEFFICIENT, thrust_coefficient
+from simplexspline.aero.data.thrust_coefficient import (
+    FUEL_FLOW_THRUST_COEFFICIENT,
+    THRUST_COEFFICIENT,
+    thrust_coefficient,
+)
 from simplexspline.aero.modelling.auto import restrict_to_data
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.search import (
@@ -514,7 +518,7 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
     # unknown column; a preset's structures are restricted to the data instead.
     given = dict(settings.structures or {})
     _check_columns(df, given, (), extra=(*_RECONSTRUCTED, *ANGLE_RATE_NAMES,
-                                         THRUST_COEFFICIENT))
+                                         THRUST_COEFFICIENT, FUEL_FLOW_THRUST_COEFFICIENT))
     data, rec_note = _coefficient_data(df, meta, settings, progress, log)
     data = data.copy(deep=False)
     data.attrs = {}
@@ -522,7 +526,8 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
     for name, values in derived.items():
         if name not in data.columns:        # derived candidates: alpha', beta' made
             data[name] = values             # non-dimensional like the body rates, and
-                                            # the thrust coefficient T / (qbar S)
+                                            # the thrust coefficient T / (qbar S) (or
+                                            # its stand-in from the fuel flow)
     # coefficients the data cannot give (no accelerometers: no force coefficients) are
     # left out and said so, unless the user asked for them by name
     absent = [c for c in settings.coefficients if c not in data.columns
@@ -622,7 +627,7 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
     if workers > 1:
         # only what the fits read travels to the workers
         keep = set(columns) | set(coefs) | {f"true_{c}" for c in coefs} \
-            | {"maneuver", "maneuver_type"}
+            | {"maneuver", "maneuver_type", "t"}
         ident_w = ident[[k for k in ident.columns if k in keep]]
         valid_w = valid[[k for k in valid.columns if k in keep]]
         ctx = multiprocessing.get_context("spawn")
@@ -741,13 +746,28 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     if settings.select:
         best, history = select_structure(start, columns, y, mans, settings.selection,
                                          seed=settings.seed, prior_degree=prior_degree,
-                                         cells=cells, cache=cache)
+                                         cells=cells, cache=cache,
+                                         duration_s=_duration(ident))
     else:
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
     with compute_slot():
         return _fit_and_validate(c, best, history, prior_degree, prior_scores, ident, valid,
                                  columns, coverage, settings, has_truth, source, notes, warn,
                                  t0, busy0)
+
+
+def _duration(data) -> float | None:
+    """Time the maneuvers of ``data`` span [s]: samples times the median sample interval
+    of each maneuver; None without a time column."""
+    if "t" not in data.columns or len(data) < 2:
+        return None
+    total = 0.0
+    for _, t in data.groupby("maneuver", sort=False)["t"]:
+        dt = np.diff(t.to_numpy(dtype=float))
+        dt = dt[np.isfinite(dt) & (dt > 0)]
+        if dt.size:
+            total += len(t) * float(np.median(dt))
+    return total or None
 
 
 def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,

@@ -26,10 +26,12 @@ RATE_NAMES: tuple[str, ...] = ("phat", "qhat", "rhat")
 #: the flight state, the controls, the non-dimensional rates and flow-angle rates, the
 #: configuration (flaps, gear, speedbrake, trim tab), the mass (the centre of gravity
 #: moves with fuel burn) and the thrust coefficient ``tc = T / (qbar S)`` (power effects:
-#: a propeller's slipstream over the tail), where the data hold the thrust.
+#: a propeller's slipstream over the tail), where the data hold the thrust, or its stand-in
+#: from the fuel flow ``tc_ff`` where they do not (the thrust then stays in CX).
 CANDIDATE_VARIABLES: tuple[str, ...] = ("alpha", "beta", "mach", "phat", "qhat", "rhat",
                                         "de", "da", "dr", "alphadot_hat", "betadot_hat",
-                                        "flap", "gear", "speedbrake", "dte", "mass", "tc")
+                                        "flap", "gear", "speedbrake", "dte", "mass", "tc",
+                                        "tc_ff")
 
 #: The longitudinal coefficients and the lateral-directional ones. An aircraft is (close
 #: to) mirror-symmetric about its x-z plane, so its longitudinal coefficients are even
@@ -52,7 +54,8 @@ UNITS = {
     "qhat": "- (q cbar / 2V)", "rhat": "- (r b / 2V)", "de": "rad", "da": "rad", "dr": "rad",
     "dte": "rad", "flap": "rad", "speedbrake": "rad", "gear": "-",
     "phi": "rad", "theta": "rad", "alphadot_hat": "- (alpha' cbar / 2V)",
-    "betadot_hat": "- (beta' b / 2V)", "mass": "kg", "tc": "- (T / (qbar S))", "pdot": "rad/s^2", "qdot": "rad/s^2",
+    "betadot_hat": "- (beta' b / 2V)", "mass": "kg", "tc": "- (T / (qbar S))",
+    "tc_ff": "- (fuel_flow * 4e4 m/s / (qbar S))", "pdot": "rad/s^2", "qdot": "rad/s^2",
     "rdot": "rad/s^2",
     **{c: "-" for c in COEFFICIENTS},
 }

@@ -9,6 +9,15 @@ and Morelli, *Aircraft System Identification*, 2006); on jets it is a harmless c
 that the cross-validation leaves out. It is offered to the structure search as a candidate
 variable (a multiplier, or a scheduling variable so that a control's effect may vary with
 it), never imposed.
+
+Without the thrust (no thrust columns, no thrust model: the thrust stays in CX, as in the
+paper) a record usually still holds the engines' fuel flow, and the force the model must
+then explain varies with it from one test point to the next. The fuel-flow thrust
+coefficient ``tc_ff = fuel_flow * V_ff / (qbar S)`` stands in for ``tc``: the thrust a fuel
+flow would give at a fixed specific thrust ``V_ff`` (:data:`SPECIFIC_THRUST`), over the
+dynamic pressure. Only its shape matters: the model multiplies it by fitted coefficients
+that may vary with the flight state (a jet's thrust per fuel flow grows with Mach, a
+propeller's falls with airspeed), so any constant ``V_ff`` gives the same fit.
 """
 
 from __future__ import annotations
@@ -17,29 +26,38 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["THRUST_COEFFICIENT", "thrust_coefficient"]
+__all__ = ["FUEL_FLOW_THRUST_COEFFICIENT", "SPECIFIC_THRUST", "THRUST_COEFFICIENT",
+           "thrust_coefficient"]
 
-#: Name of the column :func:`thrust_coefficient` adds.
+#: Name of the column :func:`thrust_coefficient` adds from the thrust.
 THRUST_COEFFICIENT = "tc"
+#: Name of the column it adds from the fuel flow when the data hold no thrust.
+FUEL_FLOW_THRUST_COEFFICIENT = "tc_ff"
+#: Thrust per fuel flow [N/(kg/s) = m/s] that scales ``tc_ff`` to the size of ``tc``: a
+#: turbofan's order of magnitude (TSFC 0.9 lb/(lbf h)). A scale only: it changes no fit.
+SPECIFIC_THRUST = 4.0e4
 
 
 def thrust_coefficient(df, metadata: Mapping) -> dict[str, np.ndarray]:
-    """The thrust coefficient, when the data hold the thrust.
+    """The thrust coefficient, or the fuel-flow one when the data hold no thrust.
 
     Parameters
     ----------
     df : pandas.DataFrame
-        Flight data in the schema with ``thrust_x`` [N] (measured, simulated or from a
-        :class:`~simplexspline.aero.data.thrust.ThrustModel`), ``rho`` [kg/m^3] and
-        ``tas`` [m/s].
+        Flight data in the schema with ``rho`` [kg/m^3], ``tas`` [m/s] and ``thrust_x``
+        [N] (measured, simulated or from a
+        :class:`~simplexspline.aero.data.thrust.ThrustModel`) or, failing that,
+        ``fuel_flow`` [kg/s].
     metadata : mapping
         ``S`` [m^2], the wing area.
 
     Returns
     -------
     dict of str to ndarray, shape (N,)
-        ``{'tc': thrust_x / (0.5 rho tas^2 S)}`` [-]; empty when a column or ``S`` is
-        missing, or the thrust is all NaN (an aircraft whose record holds no thrust).
+        ``{'tc': thrust_x / (0.5 rho tas^2 S)}`` [-] when the thrust is there (not all
+        NaN); else ``{'tc_ff': fuel_flow * SPECIFIC_THRUST / (0.5 rho tas^2 S)}`` [-]
+        when the fuel flow is; else empty (also when ``S``, ``rho`` or ``tas`` is
+        missing).
 
     Examples
     --------
@@ -47,12 +65,20 @@ def thrust_coefficient(df, metadata: Mapping) -> dict[str, np.ndarray]:
     >>> df = pd.DataFrame({"thrust_x": [2000.0], "rho": [1.0], "tas": [40.0]})
     >>> thrust_coefficient(df, {"S": 16.0})["tc"].round(4)
     array([0.1562])
+    >>> df = pd.DataFrame({"fuel_flow": [0.05], "rho": [1.0], "tas": [40.0]})
+    >>> thrust_coefficient(df, {"S": 16.0})["tc_ff"].round(4)
+    array([0.1562])
     """
-    if "S" not in metadata or any(c not in df.columns for c in ("thrust_x", "rho", "tas")):
+    if "S" not in metadata or any(c not in df.columns for c in ("rho", "tas")):
         return {}
-    thrust = df["thrust_x"].to_numpy(dtype=float)
-    if not np.isfinite(thrust).any():
-        return {}
-    qbar = 0.5 * df["rho"].to_numpy(dtype=float) * df["tas"].to_numpy(dtype=float) ** 2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return {THRUST_COEFFICIENT: thrust / (qbar * float(metadata["S"]))}
+    for name, column, scale in ((THRUST_COEFFICIENT, "thrust_x", 1.0),
+                                (FUEL_FLOW_THRUST_COEFFICIENT, "fuel_flow", SPECIFIC_THRUST)):
+        if column not in df.columns:
+            continue
+        force = df[column].to_numpy(dtype=float) * scale
+        if not np.isfinite(force).any():
+            continue
+        qbar = 0.5 * df["rho"].to_numpy(dtype=float) * df["tas"].to_numpy(dtype=float) ** 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return {name: force / (qbar * float(metadata["S"]))}
+    return {}

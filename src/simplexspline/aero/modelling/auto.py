@@ -38,11 +38,11 @@ __all__ = ["AUTO_PRESET", "EVEN_LATERAL", "SCHEDULING_CANDIDATES", "candidate_te
 EVEN_LATERAL: tuple[str, ...] = ("beta", "da", "dr")
 
 #: Variables that may schedule the coefficients (be a dimension of the triangulation): the
-#: continuous flight state and controls, and the thrust coefficient (a control's
-#: effectiveness growing with the slipstream). The rates enter linearly (small-perturbation
+#: continuous flight state and controls, and the thrust coefficient or its fuel-flow stand-in
+#: (a control's effectiveness growing with the slipstream). The rates enter linearly (small-perturbation
 #: derivatives vary with the state, not with the rate itself).
 SCHEDULING_CANDIDATES: tuple[str, ...] = ("alpha", "mach", "beta", "de", "da", "dr", "flap",
-                                          "tc")
+                                          "tc", "tc_ff")
 
 _LONGITUDINAL_START = ("1", "qhat", "de")
 _LATERAL_START = ("1", "beta", "phat", "rhat", "da", "dr")

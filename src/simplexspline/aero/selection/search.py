@@ -90,7 +90,13 @@ class SelectionSettings:
     max_coefficients : int
         Largest number of B-coefficients (J * d_hat) tried.
     samples_per_coefficient : float
-        A structure needs at least this many identification samples per B-coefficient.
+        A structure needs at least this many identification samples per B-coefficient...
+    seconds_per_coefficient : float
+        ... or this much identification data [s] per B-coefficient, whichever allows more
+        (when the caller gives the data's duration). The information in flight data grows
+        with the time flown, not with the sample rate: 20 samples are 0.4 s at 50 Hz but
+        2 s at 10 Hz, where the sample count alone held a 24-maneuver sortie's CX at its
+        starting size, unable to take the fuel flow that its thrust follows.
     min_points : int
         Simplices holding fewer samples are dropped from the triangulation.
     moves : tuple of str
@@ -168,6 +174,7 @@ class SelectionSettings:
     max_schedule: int = 3
     max_coefficients: int = 12000
     samples_per_coefficient: float = 20.0
+    seconds_per_coefficient: float = 0.4
     min_points: int = 10
     max_samples: int = 60_000
     moves: tuple = ("degree", "resolution", "variables", "kinks")
@@ -596,7 +603,8 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                      seed: int = 0, progress: Callable[[str], None] | None = None,
                      prior_degree: int = 3, conditions: np.ndarray | None = None,
                      cells: np.ndarray | None = None,
-                     cache: SearchCache | None = None) -> tuple[Structure, list]:
+                     cache: SearchCache | None = None,
+                     duration_s: float | None = None) -> tuple[Structure, list]:
     """Greedy automatic model structure selection.
 
     Parameters
@@ -630,6 +638,9 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     cache : SearchCache, optional
         What the cross-validations share (see :class:`SearchCache`); pass the one given
         to :func:`choose_prior_degree` on the same data to reuse its scores.
+    duration_s : float, optional
+        Time the identification data span [s] (the sum over maneuvers): with it the size
+        budget is also ``duration_s / settings.seconds_per_coefficient``.
 
     Returns
     -------
@@ -649,7 +660,9 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     cols, ys, folds, scored, mans = setup
     available = [v for v in cols if np.ptp(np.asarray(cols[v], dtype=float)) > 0]
     ranges = {v: (float(np.min(cols[v])), float(np.max(cols[v]))) for v in available}
-    budget = min(settings.max_coefficients, int(n / settings.samples_per_coefficient))
+    budget = min(settings.max_coefficients, int(max(
+        n / settings.samples_per_coefficient,
+        (duration_s or 0.0) / settings.seconds_per_coefficient)))
     seen: dict = {}
     history: list = []
     cache = (cache or SearchCache()).bind(ys, folds, scored, settings)
