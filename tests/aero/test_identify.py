@@ -321,6 +321,28 @@ def test_coefficients_the_data_cannot_give_are_left_out_and_said(table):
             select=False))
 
 
+def test_thrust_left_in_cx_is_said_with_what_the_search_was_offered(table):
+    """Coefficients reconstructed without thrust (metadata ``reconstruction.thrust`` =
+    'included'): the summary says CX holds it and whether the fuel flow's tc_ff was
+    offered; thrust subtracted, nothing is said."""
+    settings = IdentificationSettings(coefficients=("CX",), select=False, workers=1)
+    meta = {**table.attrs, "S": 30.0, "reconstruction": {"thrust": "included"}}
+    res = identify(table, meta, settings=settings)
+    assert sum("hold no fuel flow: CX cannot follow the throttle" in w
+               for w in res.warnings) == 1
+    flow = table.assign(fuel_flow=0.3 + 0.01 * table["maneuver"] % 7)
+    res = identify(flow, meta, settings=settings)            # no density: no tc_ff
+    assert sum("tc_ff also needs rho" in w for w in res.warnings) == 1
+    flow["rho"] = 0.9
+    res = identify(flow, meta, settings=settings)
+    assert sum("offered the fuel-flow thrust coefficient tc_ff" in w
+               for w in res.warnings) == 1
+    assert "tc_ff" in res.identification.columns
+    meta["reconstruction"]["thrust"] = "columns"
+    res = identify(flow, meta, settings=settings)
+    assert not any("holds the thrust" in w for w in res.warnings)
+
+
 def test_a_validation_outside_the_identification_data_is_said(table):
     """Two maneuvers at angles of attack that do not overlap: whichever is held out lies
     outside the other's coverage; the scores are still given, with a warning that they

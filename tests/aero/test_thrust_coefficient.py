@@ -44,34 +44,59 @@ def test_without_thrust_the_fuel_flow_stands_in():
     assert thrust_coefficient(df.assign(fuel_flow=np.nan), {"S": 30.0}) == {}
 
 
-def _thrust_in_cx(samples: int, dt: float, seed: int = 11) -> tuple[dict, dict]:
-    """CX with the thrust in it (no thrust channel) over 20 test points of ``samples``
-    samples ``dt`` apart: each point flies its own throttle, and the thrust per fuel flow
-    grows with Mach (a jet). Returns the candidate columns and y, truth, maneuver."""
+def _offered_or_not(coefficient: str, variable: str, data: dict, d: dict) -> dict:
+    """RMS against the truth of the default search's model with ``variable`` offered
+    (True) and without it (False); asserts the search takes it when offered."""
+    settings = SelectionSettings(max_rounds=4, max_samples=20_000)
+    errors = {}
+    for offered in (True, False):
+        cols_ = data if offered else {k: v for k, v in data.items() if k != variable}
+        start, _ = restrict_to_data(AUTO_PRESET[coefficient], cols_)
+        best, _history = select_structure(start, cols_, d["y"], d["man"], settings)
+        model = fit_structure(best, cols_, d["y"], settings)
+        errors[offered] = float(np.sqrt(np.mean((model.predict(cols_) - d["truth"]) ** 2)))
+        if offered:
+            assert variable in best.inputs, best.label()
+    return errors
+
+
+def _test_points(points: int, samples: int, dt: float, seed: int, point) -> dict:
+    """``points`` maneuvers of ``samples`` samples ``dt`` apart: ``point(wave, rng)`` gives
+    one maneuver's columns and its ``truth`` from ``wave(amp, centre)`` (a sum of three
+    sines of random frequency and phase); y is the truth plus 1e-3 white noise."""
     rng = np.random.default_rng(seed)
     t = np.arange(samples) * dt
-    names = ("alpha", "mach", "de", "qhat", "tc_ff", "y", "truth", "man")
-    cols = {k: [] for k in names}
-    for m in range(20):
+    cols: dict = {}
+    for m in range(points):
         def wave(amp, centre=0.0):
             f, ph = rng.uniform(0.1, 1.0, 3), rng.uniform(0, 2 * np.pi, 3)
             return centre + amp * np.sin(2 * np.pi * f[:, None] * t + ph[:, None]).sum(0) / 3
 
+        one = point(wave, rng)
+        one["y"] = one["truth"] + 1e-3 * rng.standard_normal(len(t))
+        one["man"] = np.full(len(t), m)
+        for k, v in one.items():
+            cols.setdefault(k, []).append(v)
+    return {k: np.concatenate(v) for k, v in cols.items()}
+
+
+def _thrust_in_cx(samples: int, dt: float, seed: int = 11) -> tuple[dict, dict]:
+    """CX with the thrust in it (no thrust channel) over 20 test points of ``samples``
+    samples ``dt`` apart: each point flies its own throttle, and the thrust per fuel flow
+    grows with Mach (a jet). Returns the candidate columns and y, truth, maneuver."""
+    def point(wave, rng):
         alpha = wave(0.03, rng.uniform(0.0, 0.1))
         de, qhat = wave(0.05, rng.uniform(-0.05, 0.0)), wave(0.004)
-        mach = np.full_like(t, rng.uniform(0.3, 0.7)) + wave(0.01)
+        mach = np.full_like(alpha, rng.uniform(0.3, 0.7)) + wave(0.01)
         rho = rng.uniform(0.6, 1.2)
         qbar_s = 0.5 * rho * (mach * 330.0) ** 2 * 30.0
         fuel_flow = rng.uniform(0.1, 0.6) + wave(0.02)                # throttle per point
         thrust = fuel_flow * 3.5e4 * (1.0 + 0.5 * mach)
-        tc_ff = fuel_flow * SPECIFIC_THRUST / qbar_s
         truth = -0.03 + 0.3 * alpha + 2.0 * alpha ** 2 - 0.01 * de + thrust / qbar_s
-        for k, v in (("alpha", alpha), ("mach", mach), ("de", de), ("qhat", qhat),
-                     ("tc_ff", tc_ff), ("truth", truth),
-                     ("y", truth + 1e-3 * rng.standard_normal(len(t))),
-                     ("man", np.full(len(t), m))):
-            cols[k].append(v)
-    d = {k: np.concatenate(v) for k, v in cols.items()}
+        return {"alpha": alpha, "mach": mach, "de": de, "qhat": qhat,
+                "tc_ff": fuel_flow * SPECIFIC_THRUST / qbar_s, "truth": truth}
+
+    d = _test_points(20, samples, dt, seed, point)
     return {k: d[k] for k in ("alpha", "mach", "de", "qhat", "tc_ff")}, d
 
 
@@ -79,16 +104,7 @@ def test_thrust_in_cx_follows_the_fuel_flow():
     """Offered tc_ff, the default search takes it into CX and reaches the noise; without
     it the throttle's share of CX is unexplained."""
     data, d = _thrust_in_cx(400, 0.05)
-    settings = SelectionSettings(max_rounds=4, max_samples=20_000)
-    errors = {}
-    for offered in (True, False):
-        cols_ = data if offered else {k: v for k, v in data.items() if k != "tc_ff"}
-        start, _ = restrict_to_data(AUTO_PRESET["CX"], cols_)
-        best, _history = select_structure(start, cols_, d["y"], d["man"], settings)
-        model = fit_structure(best, cols_, d["y"], settings)
-        errors[offered] = float(np.sqrt(np.mean((model.predict(cols_) - d["truth"]) ** 2)))
-        if offered:
-            assert "tc_ff" in best.inputs, best.label()
+    errors = _offered_or_not("CX", "tc_ff", data, d)
     assert errors[True] < 1e-3 < errors[False] / 3, errors
 
 
@@ -117,34 +133,16 @@ def test_the_size_budget_counts_the_time_flown_not_the_samples():
 def test_search_finds_a_power_effect_on_the_elevator():
     """Cm's elevator term scales with the slipstream, (1 + 3 tc): the default search, offered
     tc, takes it into the model and reaches the noise; without tc it cannot."""
-    rng = np.random.default_rng(4)
-    t = np.arange(500) * 0.02
-    cols = {k: [] for k in ("alpha", "mach", "de", "qhat", "tc", "y", "truth", "man")}
-    for m in range(18):
-        def wave(amp, centre=0.0):
-            f, ph = rng.uniform(0.1, 1.0, 3), rng.uniform(0, 2 * np.pi, 3)
-            return centre + amp * np.sin(2 * np.pi * f[:, None] * t + ph[:, None]).sum(0) / 3
-
+    def point(wave, rng):
         alpha = wave(0.05, rng.uniform(0.0, 0.12))
         de, qhat = wave(0.1, rng.uniform(-0.05, 0.05)), wave(0.004)
-        mach = np.full_like(t, rng.uniform(0.15, 0.25)) + wave(0.01)
+        mach = np.full_like(alpha, rng.uniform(0.15, 0.25)) + wave(0.01)
         tc = np.clip(wave(0.05, rng.uniform(0.0, 0.3)), 0.0, None)   # throttle per maneuver
         truth = 0.05 - 0.9 * alpha - 1.1 * de * (1.0 + 3.0 * tc) - 12.0 * qhat
-        for k, v in (("alpha", alpha), ("mach", mach), ("de", de), ("qhat", qhat),
-                     ("tc", tc), ("truth", truth),
-                     ("y", truth + 1e-3 * rng.standard_normal(len(t))),
-                     ("man", np.full(len(t), m))):
-            cols[k].append(v)
-    d = {k: np.concatenate(v) for k, v in cols.items()}
+        return {"alpha": alpha, "mach": mach, "de": de, "qhat": qhat, "tc": tc,
+                "truth": truth}
+
+    d = _test_points(18, 500, 0.02, 4, point)
     data = {k: d[k] for k in ("alpha", "mach", "de", "qhat", "tc")}
-    settings = SelectionSettings(max_rounds=4, max_samples=20_000)
-    errors = {}
-    for offered in (True, False):
-        cols_ = data if offered else {k: v for k, v in data.items() if k != "tc"}
-        start, _ = restrict_to_data(AUTO_PRESET["Cm"], cols_)
-        best, _history = select_structure(start, cols_, d["y"], d["man"], settings)
-        model = fit_structure(best, cols_, d["y"], settings)
-        errors[offered] = float(np.sqrt(np.mean((model.predict(cols_) - d["truth"]) ** 2)))
-        if offered:
-            assert "tc" in best.inputs, best.label()
+    errors = _offered_or_not("Cm", "tc", data, d)
     assert errors[True] < 1e-3 < errors[False] / 3, errors

@@ -543,6 +543,10 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
                                                         if c not in absent))
         structures = {c: v for c, v in structures.items() if c not in absent}
     _check_columns(data, given, settings.coefficients)
+    thrust = _thrust_note(data, settings, rec_note, meta)
+    if thrust:
+        log(f"note: {thrust}")
+        dropped.append(thrust)
     # the structures' columns that the data have must be clean (a preset's missing ones
     # are left out later); candidates of the search with gaps are only not offered
     def present(v):     # a column that is entirely NaN is a sensor the aircraft lacks
@@ -566,6 +570,28 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
                               f"of maneuver(s) {mans[:10].tolist()}: drop those maneuvers or "
                               "fill the gaps before identification")
     return data, rec_note, used, settings, dropped
+
+
+def _thrust_note(data, settings: IdentificationSettings, rec_note: Mapping,
+                 meta: Mapping) -> str:
+    """What CX holds when the reconstruction left the thrust in it (this run's, or the
+    one that made the data): the note, or '' (thrust subtracted, CX not modelled, or
+    coefficients from elsewhere)."""
+    if rec_note.get("reconstructed"):
+        included = not rec_note.get("thrust_subtracted")
+    else:
+        included = (meta.get("reconstruction") or {}).get("thrust") == "included"
+    if "CX" not in settings.coefficients or not included:
+        return ""
+    if FUEL_FLOW_THRUST_COEFFICIENT in data.columns:
+        return ("CX holds the thrust (no thrust columns, no thrust model); the search is "
+                "offered the fuel-flow thrust coefficient tc_ff = fuel_flow * 4e4 m/s / "
+                "(qbar S) so that CX may follow the throttle")
+    why = ("the fuel flow is there, but tc_ff also needs rho, tas and the wing area S"
+           if "fuel_flow" in data.columns else "the data hold no fuel flow")
+    return (f"CX holds the thrust (no thrust columns, no thrust model) and {why}: CX cannot "
+            "follow the throttle between test points; map the engines' fuel flow "
+            "(fuel_flow) or give a thrust model")
 
 
 @dataclass(frozen=True)

@@ -58,7 +58,7 @@ _BLENDED = ("alpha", "tas", "mach", "h", "rho", "p", "q", "r", "phi", "theta", "
             "az", "de", "da", "dr", "vn_gps", "ve_gps", "mass")
 #: Engine channels written when the campaign holds them (older campaigns do not).
 _ENGINE = ("fuel_flow", "n1")
-_LB = 0.45359237  # kg per pound (exact)
+_LB = u.LB  # kg per pound (exact)
 _LAT0, _LON0 = math.radians(52.0), math.radians(4.4)
 _T0_RECORD = 1000.0  # the recorder's clock does not start at zero
 
