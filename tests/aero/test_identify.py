@@ -328,7 +328,11 @@ def test_thrust_left_in_cx_is_said_with_what_the_search_was_offered(table):
     settings = IdentificationSettings(coefficients=("CX",), select=False, workers=1)
     meta = {**table.attrs, "S": 30.0, "reconstruction": {"thrust": "included"}}
     res = identify(table, meta, settings=settings)
-    assert sum("hold no fuel flow: CX cannot follow the throttle" in w
+    assert sum("hold no fuel flow or fan speed: CX cannot follow the throttle" in w
+               for w in res.warnings) == 1
+    fan = table.assign(n1=0.7 + 0.01 * (table["maneuver"] % 5))
+    res = identify(fan, meta, settings=settings)
+    assert sum("offered the fan-speed thrust coefficient tc_n1" in w
                for w in res.warnings) == 1
     flow = table.assign(fuel_flow=0.3 + 0.01 * table["maneuver"] % 7)
     res = identify(flow, meta, settings=settings)            # no density: no tc_ff

@@ -42,6 +42,13 @@ def test_without_thrust_the_fuel_flow_stands_in():
     no_thrust = df.assign(thrust_x=np.nan)            # a thrust column that is all NaN
     assert list(thrust_coefficient(no_thrust, {"S": 30.0})) == ["tc_ff"]
     assert thrust_coefficient(df.assign(fuel_flow=np.nan), {"S": 30.0}) == {}
+    # without fuel flow, the fan speed: T / (qbar S) ~ (N1 / sqrt(theta))^2 / (theta M^2)
+    fan = df.drop(columns="fuel_flow").assign(n1=[0.8, 0.9, 0.5])
+    tc = thrust_coefficient(fan, {"S": 30.0})
+    assert list(tc) == ["tc_n1"]
+    np.testing.assert_allclose(tc["tc_n1"], (fan["n1"] * 340.294 / fan["tas"]) ** 2,
+                               rtol=1e-15)
+    assert list(thrust_coefficient(fan.assign(fuel_flow=0.4), {"S": 30.0})) == ["tc_ff"]
 
 
 def _offered_or_not(coefficient: str, variable: str, data: dict, d: dict) -> dict:

@@ -15,7 +15,7 @@ A config file (all tables and keys optional)::
     [selection]
     candidates = ["alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr",
                   "alphadot_hat", "betadot_hat", "flap", "gear", "speedbrake", "dte", "mass",
-                  "tc", "tc_ff"]
+                  "tc", "tc_ff", "tc_n1"]
     max_rounds = 6
     folds = 3
     min_improvement = 0.01

@@ -27,6 +27,7 @@ import numpy as np
 
 from simplexspline.aero.data.angle_rates import ANGLE_RATE_NAMES, angle_rates
 from simplexspline.aero.data.thrust_coefficient import (
+    FAN_SPEED_THRUST_COEFFICIENT,
     FUEL_FLOW_THRUST_COEFFICIENT,
     THRUST_COEFFICIENT,
     thrust_coefficient,
@@ -518,7 +519,8 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
     # unknown column; a preset's structures are restricted to the data instead.
     given = dict(settings.structures or {})
     _check_columns(df, given, (), extra=(*_RECONSTRUCTED, *ANGLE_RATE_NAMES,
-                                         THRUST_COEFFICIENT, FUEL_FLOW_THRUST_COEFFICIENT))
+                                         THRUST_COEFFICIENT, FUEL_FLOW_THRUST_COEFFICIENT,
+                                         FAN_SPEED_THRUST_COEFFICIENT))
     data, rec_note = _coefficient_data(df, meta, settings, progress, log)
     data = data.copy(deep=False)
     data.attrs = {}
@@ -587,11 +589,15 @@ def _thrust_note(data, settings: IdentificationSettings, rec_note: Mapping,
         return ("CX holds the thrust (no thrust columns, no thrust model); the search is "
                 "offered the fuel-flow thrust coefficient tc_ff = fuel_flow * 4e4 m/s / "
                 "(qbar S) so that CX may follow the throttle")
+    if FAN_SPEED_THRUST_COEFFICIENT in data.columns:
+        return ("CX holds the thrust (no thrust columns, no thrust model, no fuel flow); the "
+                "search is offered the fan-speed thrust coefficient tc_n1 = (n1 a0 / V)^2 "
+                "(a turbofan's) so that CX may follow the throttle")
     why = ("the fuel flow is there, but tc_ff also needs rho, tas and the wing area S"
-           if "fuel_flow" in data.columns else "the data hold no fuel flow")
+           if "fuel_flow" in data.columns else "the data hold no fuel flow or fan speed")
     return (f"CX holds the thrust (no thrust columns, no thrust model) and {why}: CX cannot "
             "follow the throttle between test points; map the engines' fuel flow "
-            "(fuel_flow) or give a thrust model")
+            "(fuel_flow) or fan speed (n1), or give a thrust model")
 
 
 @dataclass(frozen=True)

@@ -27,11 +27,12 @@ RATE_NAMES: tuple[str, ...] = ("phat", "qhat", "rhat")
 #: configuration (flaps, gear, speedbrake, trim tab), the mass (the centre of gravity
 #: moves with fuel burn) and the thrust coefficient ``tc = T / (qbar S)`` (power effects:
 #: a propeller's slipstream over the tail), where the data hold the thrust, or its stand-in
-#: from the fuel flow ``tc_ff`` where they do not (the thrust then stays in CX).
+#: from the fuel flow ``tc_ff`` (or the fan speed, ``tc_n1``) where they do not (the thrust
+#: then stays in CX).
 CANDIDATE_VARIABLES: tuple[str, ...] = ("alpha", "beta", "mach", "phat", "qhat", "rhat",
                                         "de", "da", "dr", "alphadot_hat", "betadot_hat",
                                         "flap", "gear", "speedbrake", "dte", "mass", "tc",
-                                        "tc_ff")
+                                        "tc_ff", "tc_n1")
 
 #: The longitudinal coefficients and the lateral-directional ones. An aircraft is (close
 #: to) mirror-symmetric about its x-z plane, so its longitudinal coefficients are even
@@ -55,7 +56,7 @@ UNITS = {
     "dte": "rad", "flap": "rad", "speedbrake": "rad", "gear": "-",
     "phi": "rad", "theta": "rad", "alphadot_hat": "- (alpha' cbar / 2V)",
     "betadot_hat": "- (beta' b / 2V)", "mass": "kg", "tc": "- (T / (qbar S))",
-    "tc_ff": "- (fuel_flow * 4e4 m/s / (qbar S))", "pdot": "rad/s^2", "qdot": "rad/s^2",
+    "tc_ff": "- (fuel_flow * 4e4 m/s / (qbar S))", "tc_n1": "- ((n1 a0 / V)^2)", "pdot": "rad/s^2", "qdot": "rad/s^2",
     "rdot": "rad/s^2",
     **{c: "-" for c in COEFFICIENTS},
 }

@@ -18,6 +18,12 @@ flow would give at a fixed specific thrust ``V_ff`` (:data:`SPECIFIC_THRUST`), o
 dynamic pressure. Only its shape matters: the model multiplies it by fitted coefficients
 that may vary with the flight state (a jet's thrust per fuel flow grows with Mach, a
 propeller's falls with airspeed), so any constant ``V_ff`` gives the same fit.
+
+A record with the fan speed N1 but no fuel flow gets ``tc_n1 = (n1 a0 / tas)^2`` instead
+(``a0`` the sea-level speed of sound): a turbofan's corrected thrust ``F / delta`` grows
+about as the square of its corrected fan speed ``N1 / sqrt(theta)``, and with
+``qbar = 0.7 p M^2`` and ``theta M^2 = (tas / a0)^2`` that makes ``T / (qbar S)``
+proportional to it. Again only its shape matters.
 """
 
 from __future__ import annotations
@@ -26,8 +32,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["FUEL_FLOW_THRUST_COEFFICIENT", "SPECIFIC_THRUST", "THRUST_COEFFICIENT",
-           "thrust_coefficient"]
+__all__ = ["FAN_SPEED_THRUST_COEFFICIENT", "FUEL_FLOW_THRUST_COEFFICIENT", "SPECIFIC_THRUST",
+           "THRUST_COEFFICIENT", "thrust_coefficient"]
 
 #: Name of the column :func:`thrust_coefficient` adds from the thrust.
 THRUST_COEFFICIENT = "tc"
@@ -36,10 +42,16 @@ FUEL_FLOW_THRUST_COEFFICIENT = "tc_ff"
 #: Thrust per fuel flow [N/(kg/s) = m/s] that scales ``tc_ff`` to the size of ``tc``: a
 #: turbofan's order of magnitude (TSFC 0.9 lb/(lbf h)). A scale only: it changes no fit.
 SPECIFIC_THRUST = 4.0e4
+#: Name of the column it adds from the fan speed when the data hold no thrust and no fuel
+#: flow.
+FAN_SPEED_THRUST_COEFFICIENT = "tc_n1"
+#: Sea-level speed of sound of the ISA [m/s].
+_A0 = 340.294
 
 
 def thrust_coefficient(df, metadata: Mapping) -> dict[str, np.ndarray]:
-    """The thrust coefficient, or the fuel-flow one when the data hold no thrust.
+    """The thrust coefficient, or its stand-in from the fuel flow or the fan speed when the
+    data hold no thrust.
 
     Parameters
     ----------
@@ -47,7 +59,7 @@ def thrust_coefficient(df, metadata: Mapping) -> dict[str, np.ndarray]:
         Flight data in the schema with ``rho`` [kg/m^3], ``tas`` [m/s] and ``thrust_x``
         [N] (measured, simulated or from a
         :class:`~simplexspline.aero.data.thrust.ThrustModel`) or, failing that,
-        ``fuel_flow`` [kg/s].
+        ``fuel_flow`` [kg/s], or ``n1`` [-].
     metadata : mapping
         ``S`` [m^2], the wing area.
 
@@ -56,8 +68,9 @@ def thrust_coefficient(df, metadata: Mapping) -> dict[str, np.ndarray]:
     dict of str to ndarray, shape (N,)
         ``{'tc': thrust_x / (0.5 rho tas^2 S)}`` [-] when the thrust is there (not all
         NaN); else ``{'tc_ff': fuel_flow * SPECIFIC_THRUST / (0.5 rho tas^2 S)}`` [-]
-        when the fuel flow is; else empty (also when ``S``, ``rho`` or ``tas`` is
-        missing).
+        when the fuel flow is; else ``{'tc_n1': (n1 * 340.294 / tas)^2}`` [-] when the
+        fan speed is (which needs neither ``rho`` nor ``S``); else empty (also when
+        ``tas``, or ``S`` or ``rho`` for the first two, is missing).
 
     Examples
     --------
@@ -68,12 +81,15 @@ def thrust_coefficient(df, metadata: Mapping) -> dict[str, np.ndarray]:
     >>> df = pd.DataFrame({"fuel_flow": [0.05], "rho": [1.0], "tas": [40.0]})
     >>> thrust_coefficient(df, {"S": 16.0})["tc_ff"].round(4)
     array([0.1562])
+    >>> df = pd.DataFrame({"n1": [0.8], "rho": [1.0], "tas": [200.0]})
+    >>> thrust_coefficient(df, {"S": 16.0})["tc_n1"].round(4)
+    array([1.8528])
     """
-    if "S" not in metadata or any(c not in df.columns for c in ("rho", "tas")):
+    if "tas" not in df.columns:
         return {}
     for name, column, scale in ((THRUST_COEFFICIENT, "thrust_x", 1.0),
                                 (FUEL_FLOW_THRUST_COEFFICIENT, "fuel_flow", SPECIFIC_THRUST)):
-        if column not in df.columns:
+        if column not in df.columns or "rho" not in df.columns or "S" not in metadata:
             continue
         force = df[column].to_numpy(dtype=float) * scale
         if not np.isfinite(force).any():
@@ -81,4 +97,10 @@ def thrust_coefficient(df, metadata: Mapping) -> dict[str, np.ndarray]:
         qbar = 0.5 * df["rho"].to_numpy(dtype=float) * df["tas"].to_numpy(dtype=float) ** 2
         with np.errstate(divide="ignore", invalid="ignore"):
             return {name: force / (qbar * float(metadata["S"]))}
+    if "n1" in df.columns:
+        n1 = df["n1"].to_numpy(dtype=float)
+        if np.isfinite(n1).any():
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return {FAN_SPEED_THRUST_COEFFICIENT:
+                        (n1 * _A0 / df["tas"].to_numpy(dtype=float)) ** 2}
     return {}

@@ -42,7 +42,7 @@ EVEN_LATERAL: tuple[str, ...] = ("beta", "da", "dr")
 #: (a control's effectiveness growing with the slipstream). The rates enter linearly (small-perturbation
 #: derivatives vary with the state, not with the rate itself).
 SCHEDULING_CANDIDATES: tuple[str, ...] = ("alpha", "mach", "beta", "de", "da", "dr", "flap",
-                                          "tc", "tc_ff")
+                                          "tc", "tc_ff", "tc_n1")
 
 _LONGITUDINAL_START = ("1", "qhat", "de")
 _LATERAL_START = ("1", "beta", "phat", "rhat", "da", "dr")
