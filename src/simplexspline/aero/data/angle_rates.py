@@ -24,7 +24,7 @@ ANGLE_RATE_NAMES: dict[str, tuple[str, str]] = {"alphadot_hat": ("alpha", "cbar"
                                                 "betadot_hat": ("beta", "b")}
 
 
-def angle_rates(df, metadata: Mapping, *, half_window: int = 8,
+def angle_rates(df, metadata: Mapping, *, half_window: int | None = None,
                 degree: int = 4) -> dict[str, np.ndarray]:
     """The non-dimensional flow-angle rates that the data allow.
 
@@ -35,9 +35,11 @@ def angle_rates(df, metadata: Mapping, *, half_window: int = 8,
         ``beta`` [rad] (reconstructed data are best: the derivative amplifies noise).
     metadata : mapping
         ``cbar`` and ``b`` [m].
-    half_window, degree : int
+    half_window : int, optional
+    degree : int
         Smoothing of the derivative
-        (:func:`~simplexspline.aero.data.differentiation.midpoint_derivative`).
+        (:func:`~simplexspline.aero.data.differentiation.derivative_by_maneuver`; None: the
+        default for the data's rate).
 
     Returns
     -------

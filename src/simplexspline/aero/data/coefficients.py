@@ -58,15 +58,18 @@ _NEEDED = ("maneuver", "t", "tas", "rho", "p", "q", "r", "mass", "Ixx", "Iyy", "
 _ACCELEROMETERS = ("ax", "ay", "az")
 
 
-def angular_accelerations(df, *, half_window: int = 8, degree: int = 4) -> np.ndarray:
+def angular_accelerations(df, *, half_window: int | None = None,
+                          degree: int = 4) -> np.ndarray:
     """pdot, qdot, rdot [rad/s^2] by smoothed differentiation of p, q, r per maneuver.
 
     Parameters
     ----------
     df : pandas.DataFrame
         Columns ``maneuver``, ``t``, ``p``, ``q``, ``r``; uniform sampling within a maneuver.
-    half_window, degree : int
-        See :func:`~simplexspline.aero.data.differentiation.midpoint_derivative`.
+    half_window : int, optional
+    degree : int
+        See :func:`~simplexspline.aero.data.differentiation.derivative_by_maneuver` (None:
+        the default for the data's rate).
 
     Returns
     -------
@@ -119,7 +122,7 @@ def _moment_reference(meta: Mapping, cg: np.ndarray) -> tuple[np.ndarray, str]:
 
 
 def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
-                             accelerations: str = "auto", half_window: int = 8,
+                             accelerations: str = "auto", half_window: int | None = None,
                              degree: int = 4, thrust_model=None):
     """Force and moment coefficients (Eq. 43-48) and non-dimensional rates.
 
@@ -132,8 +135,10 @@ def aerodynamic_coefficients(df, metadata: Mapping | None = None, *,
     accelerations : {'auto', 'measured', 'differentiate'}
         Where pdot, qdot, rdot come from: the columns ('measured'), smoothed
         differentiation of p, q, r ('differentiate'), or the columns when present ('auto').
-    half_window, degree : int
-        Differentiation settings.
+    half_window : int, optional
+    degree : int
+        Differentiation settings (:func:`angular_accelerations`; None: the default for the
+        data's rate).
     thrust_model : callable or ThrustModel, optional
         Used when the ``thrust_*`` columns are absent: ``thrust_model(df)`` returns a
         mapping with some of ``thrust_x .. thrust_n`` ((n,) arrays, N and N m; the others

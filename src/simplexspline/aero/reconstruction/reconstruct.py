@@ -29,6 +29,7 @@ from simplexspline._files import jsonable
 from simplexspline.aero.data.atmosphere import hydrostatic_height
 from simplexspline.aero.data.adaptive_smoothing import smooth_by_maneuver
 from simplexspline.aero.data.coefficients import THRUST_COLUMNS, aerodynamic_coefficients
+from simplexspline.aero.data.differentiation import SIMULATOR_STEP_MAX_S
 from simplexspline.aero.data.flight_data import (
     present_columns, sensor_geometry, validate_flight_data,
 )
@@ -64,8 +65,6 @@ from simplexspline.spline import kernels
 __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstruct_maneuver",
            "innovation_statistics", "significant_lags"]
 
-#: Largest sample interval [s] at which ``rate_integration='auto'`` uses the Euler step.
-_EULER_MAX_DT = 0.0101
 #: Control-surface position columns smoothed when ``smooth_controls`` (those present).
 CONTROL_COLUMNS = ("de", "da", "dr", "dte", "flap")
 #: Constant air-data errors estimated for the whole campaign (``air_data_calibration``).
@@ -188,8 +187,12 @@ class ReconstructionSettings:
     accelerations : {'auto', 'measured', 'differentiate'}
         Source of pdot, qdot, rdot for the moment coefficients ('auto': the columns when
         present, else smoothed differentiation of the reconstructed rates).
-    diff_half_window, diff_degree : int
+    diff_half_window : int or None
+    diff_degree : int
         Smoothed-differentiation settings (:mod:`simplexspline.aero.data.differentiation`).
+        None (default): 8 samples each side in the forward-difference convention at the
+        simulator's 100 Hz step; at coarser rates 0.08 s each side (at least 2 samples)
+        centred on the samples.
     wind_random_walk : float
         Wind process noise [m/s per sqrt(s)]; 0 (default): a constant wind per maneuver.
         Used only with GPS (the wind is not observable without).
@@ -283,7 +286,7 @@ class ReconstructionSettings:
     earth_rotation: bool = True
     min_duration_s: float = 2.0
     accelerations: str = "auto"
-    diff_half_window: int = 8
+    diff_half_window: int | None = None
     diff_degree: int = 4
     wind_random_walk: float = 0.0
     gust_std: object = "auto"
@@ -484,7 +487,7 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         u[:, :3] = acc
     mode = s["rate_integration"]
     if mode == "auto":
-        mode = "euler" if dt <= _EULER_MAX_DT else "cubic"
+        mode = "euler" if dt <= SIMULATOR_STEP_MAX_S else "cubic"
     if mode == "cubic":
         # data sampled coarser than the aircraft moves: the mean of each input over the
         # step through the cubic of its four nearest samples (the trapezoid's error,
