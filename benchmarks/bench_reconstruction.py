@@ -143,7 +143,7 @@ def main() -> None:
     print(f"   thrust subtracted: {thrust}")
     s = ReconstructionSettings()
     print(f"\n   ... with pdot, qdot, rdot from smoothed differentiation of the reconstructed "
-          f"rates (m = {s.diff_half_window}, degree {s.diff_degree})")
+          f"rates (m = {s.diff_half_window or 'the default for the rate'}, degree {s.diff_degree})")
     coef_d, _ = aerodynamic_coefficients(rec.data, accelerations="differentiate",
                                          half_window=s.diff_half_window,
                                          degree=s.diff_degree)

@@ -56,7 +56,7 @@ UNITS = {
     "dte": "rad", "flap": "rad", "speedbrake": "rad", "gear": "-",
     "phi": "rad", "theta": "rad", "alphadot_hat": "- (alpha' cbar / 2V)",
     "betadot_hat": "- (beta' b / 2V)", "mass": "kg", "tc": "- (T / (qbar S))",
-    "tc_ff": "- (fuel_flow * 4e4 m/s / (qbar S))", "tc_n1": "- ((n1 a0 / V)^2)", "pdot": "rad/s^2", "qdot": "rad/s^2",
-    "rdot": "rad/s^2",
+    "tc_ff": "- (fuel_flow * 4e4 m/s / (qbar S))", "tc_n1": "- ((n1 a0 / V)^2)",
+    "pdot": "rad/s^2", "qdot": "rad/s^2", "rdot": "rad/s^2",
     **{c: "-" for c in COEFFICIENTS},
 }

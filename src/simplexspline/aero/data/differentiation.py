@@ -65,6 +65,18 @@ def derivative_weights(positions: np.ndarray, at: float, degree: int) -> np.ndar
     return np.linalg.pinv(V)[1]
 
 
+def _checked(x, half_window: int, degree: int) -> tuple[np.ndarray, int]:
+    """The samples as floats and the half window, or InputError naming what is wrong."""
+    x = np.asarray(x, dtype=float)
+    m = int(half_window)
+    if m < 1 or degree < 1:
+        raise InputError(f"need half_window >= 1 and degree >= 1; got "
+                         f"half_window={half_window}, degree={degree}")
+    if x.size < 2:
+        raise InputError(f"need at least 2 samples to differentiate, got {x.size}")
+    return x, m
+
+
 def midpoint_derivative(x, dt: float, half_window: int = 8, degree: int = 4) -> np.ndarray:
     """Smoothed derivative of a uniformly sampled signal, in the forward-difference convention.
 
@@ -94,15 +106,9 @@ def midpoint_derivative(x, dt: float, half_window: int = 8, degree: int = 4) -> 
     >>> bool(np.allclose(d, 2 * (t + 0.005)))
     True
     """
-    x = np.asarray(x, dtype=float)
-    m = int(half_window)
-    if m < 1 or degree < 1:
-        raise InputError(f"need half_window >= 1 and degree >= 1; got "
-                         f"half_window={half_window}, degree={degree}")
+    x, m = _checked(x, half_window, degree)
     degree = min(int(degree), 2 * m - 1)
     n = x.size
-    if n < 2:
-        raise InputError(f"need at least 2 samples to differentiate, got {n}")
     w = 2 * m
     if n < w:
         m = n // 2
@@ -123,14 +129,13 @@ def midpoint_derivative(x, dt: float, half_window: int = 8, degree: int = 4) -> 
 
 
 def sample_derivative(x, dt: float, half_window: int = 2, degree: int = 4) -> np.ndarray:
-    """Smoothed derivative of a uniformly sampled signal at its samples.
+    """Smoothed derivative of a uniformly sampled signal at its samples (a record sampled
+    coarser than the simulator's step).
 
     Parameters
     ----------
-    x : (n,) array_like
-        Samples (finite).
-    dt : float
-        Sample interval [s].
+    x, dt
+        As for :func:`midpoint_derivative`.
     half_window : int
         m: the fit uses the 2 m + 1 samples k - m .. k + m (shifted inside the data at the
         ends).
@@ -150,14 +155,8 @@ def sample_derivative(x, dt: float, half_window: int = 2, degree: int = 4) -> np
     >>> bool(np.allclose(d, 3 * t**2))
     True
     """
-    x = np.asarray(x, dtype=float)
-    m = int(half_window)
-    if m < 1 or degree < 1:
-        raise InputError(f"need half_window >= 1 and degree >= 1; got "
-                         f"half_window={half_window}, degree={degree}")
+    x, m = _checked(x, half_window, degree)
     n = x.size
-    if n < 2:
-        raise InputError(f"need at least 2 samples to differentiate, got {n}")
     w = min(2 * m + 1, n)
     degree = min(int(degree), w - 1)
     pos = np.arange(w, dtype=float)
