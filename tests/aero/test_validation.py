@@ -142,3 +142,38 @@ def test_folds_are_whole_maneuvers_and_balanced():
     assert load.max() - load.min() <= sizes.max()
     with pytest.raises(InputError, match="at least 5 maneuvers"):
         fold_by_maneuver(np.arange(4), 5)
+
+
+def _one_axis_maneuvers(rng, axes=(0, 0, 0, 1, 1, 2, 2), n=200):
+    """Maneuvers of one kind each (a short period, a roll, ...): maneuver m moves signal
+    ``axes[m]`` of three and leaves the others at their noise."""
+    man = np.repeat(np.arange(len(axes)), n)
+    signals = 0.01 * rng.standard_normal((man.size, 3))
+    t = np.arange(n) * 0.1
+    for m, axis in enumerate(axes):
+        signals[man == m, axis] += np.sin(2 * np.pi * 0.5 * t + m)
+    return man, signals, np.array([f"kind-{m}" for m in man])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_every_signal_is_excited_in_validation_while_identification_keeps_it(seed):
+    """Seven maneuvers of one kind each: the draw holds out one; the excitation rule adds,
+    per signal that no held-out maneuver moves, one that does, never the last one that
+    moves it."""
+    man, signals, kind = _one_axis_maneuvers(np.random.default_rng(seed))
+    axes = np.array([0, 0, 0, 1, 1, 2, 2])
+    plain = split_by_maneuver(man, 0.25, seed=seed, groups=kind)
+    assert np.unique(man[plain]).size == 1          # one kind each: nothing drawn per kind
+    val = split_by_maneuver(man, 0.25, seed=seed, groups=kind, excitation=signals)
+    held = np.unique(man[val])
+    assert set(np.unique(man[plain])) <= set(held)
+    assert set(axes[held]) == {0, 1, 2}             # every signal moves in validation ...
+    ident = np.setdiff1d(np.arange(axes.size), held)
+    assert set(axes[ident]) == {0, 1, 2}            # ... and in identification
+
+
+def test_a_signal_only_one_maneuver_moves_stays_in_identification():
+    man, signals, kind = _one_axis_maneuvers(np.random.default_rng(1), axes=(0, 0, 0, 0, 1))
+    for seed in range(8):
+        val = split_by_maneuver(man, 0.25, seed=seed, groups=kind, excitation=signals)
+        assert 4 not in np.unique(man[val])         # the only maneuver that moves signal 1

@@ -616,8 +616,10 @@ def _split(data, settings: IdentificationSettings, log):
     env = {v: data[v].to_numpy(dtype=float) for v in ENVELOPE_VARIABLES if v in data.columns}
     envelope = EnvelopeCells.from_data(env)
     cells = envelope.cell(env)
+    excited = [c for c in settings.coefficients if c in data.columns]
     is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
-                               seed=settings.seed, groups=groups, cells=cells)
+                               seed=settings.seed, groups=groups, cells=cells,
+                               excitation=data[excited].to_numpy(dtype=float))
     ident, valid = data.loc[~is_val].copy(), data.loc[is_val].copy()
     # The metadata live in ``meta``; pandas deep-copies ``attrs`` on every column access
     # (0.26 s each with a campaign's reconstruction record), so the splits carry none.

@@ -11,7 +11,7 @@ import numpy as np
 from simplexspline.aero.selection.coverage import threshold
 from simplexspline.errors import InputError
 
-__all__ = ["CONDITION_KEEP", "COVERED_KEEP", "PAPER_TABLE2", "autocorrelation", "covered_in_fold", "fold_by_maneuver", "scores",
+__all__ = ["CONDITION_KEEP", "COVERED_KEEP", "EXCITED", "PAPER_TABLE2", "autocorrelation", "covered_in_fold", "fold_by_maneuver", "scores",
            "scores_by_coverage",
            "split_by_maneuver"]
 
@@ -24,6 +24,10 @@ CONDITION_KEEP = 0.5
 #: identification data (see :func:`split_by_maneuver`, ``cells``).
 COVERED_KEEP = 0.9
 
+#: A maneuver excites a signal when the signal's standard deviation within it is at least
+#: this fraction of the largest over the maneuvers (:func:`split_by_maneuver`).
+EXCITED = 1.0 / 3.0
+
 #: Validation relative RMS of the paper's Table 2 (Cessna Citation II, fractions).
 PAPER_TABLE2 = {"CX": 0.0693, "CZ": 0.0260, "Cl": 0.0170, "Cm": 0.0172, "Cn": 0.0472}
 
@@ -32,7 +36,8 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
                       groups: np.ndarray | None = None,
                       conditions: np.ndarray | None = None,
                       keep: float = CONDITION_KEEP, cells: np.ndarray | None = None,
-                      covered_keep: float = COVERED_KEEP) -> np.ndarray:
+                      covered_keep: float = COVERED_KEEP,
+                      excitation: np.ndarray | None = None) -> np.ndarray:
     """Choose whole maneuvers for validation.
 
     Parameters
@@ -61,6 +66,17 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         cell counts): the data-driven form of ``conditions``, for records without a
         condition column.
     covered_keep : float
+    excitation : ndarray, shape (N, k), optional
+        Signals that the validation should see vary (the coefficients to be modelled).
+        After the draw, a signal that no validation maneuver excites (its standard
+        deviation within the maneuver below :data:`EXCITED` times the largest of any
+        maneuver) gets the maneuver that excites it most among those that the other rules
+        allow and that leave a maneuver exciting it at least half as much for
+        identification. And no maneuver is held out that is the last in identification to
+        excite a signal. A
+        record of a few maneuvers of one kind each (a short period, a Dutch roll, a roll)
+        otherwise validated its roll model on a pitch maneuver: R^2 below zero, measuring
+        the noise.
 
     Returns
     -------
@@ -90,6 +106,31 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         where = np.unique(maneuvers, return_inverse=True)[1]
         own = [np.bincount(cells[where == i], minlength=len(left)) for i in range(len(ids))]
     chosen = []
+    spread, level = (None, None) if excitation is None else _excitation(
+        maneuvers, len(ids), np.asarray(excitation, dtype=float))
+
+    def take(i) -> bool:
+        """Hold maneuver i out if its condition and cells allow it, and identification
+        keeps a maneuver exciting every signal that it excites."""
+        nonlocal left
+        if counts[i] > room[cond[i]]:
+            return False
+        if spread is not None:
+            rest = ~np.isin(ids, chosen)
+            rest[i] = False
+            moved = spread[i] >= level
+            if np.any(moved & ~np.any(rest[:, None] & (spread >= level), axis=0)):
+                return False
+        if cells is not None:
+            after = left - own[i]
+            hit = own[i] > 0
+            if own[i][hit & (after >= min_count)].sum() < covered_keep * counts[i]:
+                return False
+            left = after
+        room[cond[i]] -= counts[i]
+        chosen.append(ids[i])
+        return True
+
     for g in np.unique(labels):
         members = np.flatnonzero(labels == g)
         k = round(fraction * len(members))
@@ -97,23 +138,58 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         for i in rng.permutation(members):
             if taken == k:
                 break
-            if counts[i] > room[cond[i]]:
-                continue
-            if cells is not None:
-                after = left - own[i]
-                hit = own[i] > 0
-                if own[i][hit & (after >= min_count)].sum() < covered_keep * counts[i]:
-                    continue
-                left = after
-            room[cond[i]] -= counts[i]
-            chosen.append(ids[i])
-            taken += 1
+            taken += take(i)
+    if not chosen:          # too few of every kind: one maneuver, where the rules allow
+        if not any(take(i) for i in rng.permutation(len(ids))):
+            chosen.append(rng.choice(ids))
+    if spread is not None:
+        _cover_excitation(ids, spread, level, chosen, take)
     chosen = set(chosen)
-    if not chosen:
-        chosen = {rng.choice(ids)}
     if len(chosen) == len(ids):
         chosen.discard(next(iter(chosen)))
     return np.isin(maneuvers, list(chosen))
+
+
+def _excitation(maneuvers: np.ndarray, n_ids: int, signals: np.ndarray) -> tuple:
+    """Standard deviation of every signal within every maneuver, shape (n_ids, k) (NaN
+    where fewer than two finite samples), and the level that counts as excited per signal
+    (:data:`EXCITED` times the largest; infinite for a signal no maneuver moves)."""
+    signals = signals.reshape(len(maneuvers), -1)
+    where = np.unique(maneuvers, return_inverse=True)[1]
+    spread = np.full((n_ids, signals.shape[1]), np.nan)
+    for i in range(n_ids):
+        rows = signals[where == i]
+        for j in range(signals.shape[1]):
+            x = rows[:, j][np.isfinite(rows[:, j])]
+            if x.size > 1:
+                spread[i, j] = np.std(x)
+    level = np.full(signals.shape[1], np.inf)
+    for j in range(signals.shape[1]):
+        finite = spread[:, j][np.isfinite(spread[:, j])]
+        if finite.size and finite.max() > 0:
+            level[j] = EXCITED * float(finite.max())
+    return np.nan_to_num(spread, nan=-np.inf), level
+
+
+def _cover_excitation(ids: np.ndarray, spread: np.ndarray, level: np.ndarray, chosen: list,
+                      take) -> None:
+    """Add to ``chosen`` (maneuver ids), for every signal that no chosen maneuver excites,
+    the maneuver that excites it most and that ``take`` allows, keeping one at least half
+    as exciting for identification (:func:`split_by_maneuver`, ``excitation``)."""
+    for j in range(spread.shape[1]):
+        col = spread[:, j]
+        held = np.isin(ids, chosen)
+        if not np.isfinite(level[j]) or np.any(held & (col >= level[j])):
+            continue
+        for i in np.argsort(-col):
+            if held[i] or not col[i] >= level[j]:
+                continue
+            rest = ~held
+            rest[i] = False
+            if rest.sum() < 2 or col[rest].max() < 0.5 * col[i]:
+                continue
+            if take(i):
+                break
 
 
 def fold_by_maneuver(maneuvers: np.ndarray, k: int, *, seed: int = 0,
