@@ -529,7 +529,7 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
         if name not in data.columns:        # derived candidates: alpha', beta' made
             data[name] = values             # non-dimensional like the body rates, and
                                             # the thrust coefficient T / (qbar S) (or
-                                            # its stand-in from the fuel flow)
+                                            # its stand-in from the fuel flow or N1)
     # coefficients the data cannot give (no accelerometers: no force coefficients) are
     # left out and said so, unless the user asked for them by name
     absent = [c for c in settings.coefficients if c not in data.columns

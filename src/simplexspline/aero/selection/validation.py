@@ -11,8 +11,8 @@ import numpy as np
 from simplexspline.aero.selection.coverage import threshold
 from simplexspline.errors import InputError
 
-__all__ = ["CONDITION_KEEP", "COVERED_KEEP", "EXCITED", "PAPER_TABLE2", "autocorrelation", "covered_in_fold", "fold_by_maneuver", "scores",
-           "scores_by_coverage",
+__all__ = ["CONDITION_KEEP", "COVERED_KEEP", "EXCITED", "PAPER_TABLE2", "autocorrelation",
+           "covered_in_fold", "fold_by_maneuver", "scores", "scores_by_coverage",
            "split_by_maneuver"]
 
 #: Fraction of each flight condition's samples that stays for identification when
@@ -73,10 +73,9 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         maneuver) gets the maneuver that excites it most among those that the other rules
         allow and that leave a maneuver exciting it at least half as much for
         identification. And no maneuver is held out that is the last in identification to
-        excite a signal. A
-        record of a few maneuvers of one kind each (a short period, a Dutch roll, a roll)
-        otherwise validated its roll model on a pitch maneuver: R^2 below zero, measuring
-        the noise.
+        excite a signal. A record of a few maneuvers of one kind each (a short period, a
+        Dutch roll, a roll) otherwise validated its roll model on a pitch maneuver: R^2
+        below zero, measuring the noise.
 
     Returns
     -------
@@ -151,7 +150,7 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
 
 
 def _excitation(maneuvers: np.ndarray, n_ids: int, signals: np.ndarray) -> tuple:
-    """Standard deviation of every signal within every maneuver, shape (n_ids, k) (NaN
+    """Standard deviation of every signal within every maneuver, shape (n_ids, k) (-inf
     where fewer than two finite samples), and the level that counts as excited per signal
     (:data:`EXCITED` times the largest; infinite for a signal no maneuver moves)."""
     signals = signals.reshape(len(maneuvers), -1)
