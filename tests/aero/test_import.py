@@ -498,6 +498,12 @@ def test_fuel_used_summed_over_engines(tmp_path, imported):
     assert not np.allclose(result.data["mass"], result.data["mass"].iloc[0])
 
 
+def test_the_engines_fuel_flow_per_engine_is_summed(imported):
+    """The record logs fuel flow per engine in lbs/hr (48 % and 52 % of 0.35 lb/s); the
+    mapping lists both channels and the import sums them into kg/s."""
+    np.testing.assert_allclose(imported.data["fuel_flow"], 0.35 * LB, rtol=1e-7)
+
+
 def test_engine_channels_fuel_flow_summed_and_fan_speed_averaged(tmp_path, imported):
     """A twin-jet record logs fuel flow (lbs/hr) and N1 (%) per engine: the fuel flows
     are summed into ``fuel_flow`` [kg/s], the fan speeds averaged into ``n1`` [-]."""
@@ -510,11 +516,13 @@ def test_engine_channels_fuel_flow_summed_and_fan_speed_averaged(tmp_path, impor
     for name, v in (("lh_engine_FMF", left), ("rh_engine_FMF", right),
                     ("lh_engine_fan_N1", n1l), ("rh_engine_fan_N1", n1r)):
         np.savetxt(tmp_path / f"{name}.txt", np.c_[t, v], header=f"time {name}", comments="")
-    with open(tmp_path / "mapping.toml", "a") as f:
-        f.write('\n[channels.fuel_flow]\nsource = ["lh_engine_FMF", "rh_engine_FMF"]\n'
-                'unit = "lb/hour"\n'
-                '\n[channels.n1]\nsource = ["lh_engine_fan_N1", "rh_engine_fan_N1"]\n'
-                'unit = "percent"\n')
+    text = (tmp_path / "mapping.toml").read_text()
+    text = "\n".join(ln for ln in text.splitlines() if not ln.startswith("fuel_flow"))
+    (tmp_path / "mapping.toml").write_text(
+        text + '\n[channels.fuel_flow]\nsource = ["lh_engine_FMF", "rh_engine_FMF"]\n'
+        'unit = "lb/hour"\n'
+        '\n[channels.n1]\nsource = ["lh_engine_fan_N1", "rh_engine_fan_N1"]\n'
+        'unit = "percent"\n')
     d = import_record(tmp_path / "mapping.toml").data
     tt = d["t_record"].to_numpy()
     expect_ff = (np.interp(tt, t, left) + 1500.0) * LB / 3600.0

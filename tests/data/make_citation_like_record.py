@@ -4,7 +4,8 @@ Three maneuvers of the simulated business jet (global5000, perfect sensors, one 
 condition) are joined into one continuous 10 Hz "flight": 20 s on the ground (weight on
 wheels, taxiing), smooth transitions between the maneuvers, and written the way a real
 flight-test record arrives: one text file per channel (time, value) in aviation units
-(deg, deg/s, knots, ft, g, degC, lbs of fuel used), indicated airspeed instead of true
+(deg, deg/s, knots, ft, g, degC, lbs of fuel used, lbs/hr of fuel flow per engine),
+indicated airspeed instead of true
 airspeed, no sideslip vane, an empty heading file, GPS latitude and longitude only, the
 normal load factor (+1 g in level flight) instead of the body z specific force, and the
 elevator stored without time stamps at the stated 10 Hz. The truth (SI, schema names, with
@@ -30,6 +31,7 @@ OUT = Path(__file__).resolve().parent / "citation_like"
 RATE = 10.0
 KT, FT, LB, G0 = 1852.0 / 3600.0, 0.3048, 0.45359237, 9.80665
 RAMP_LB, BURN_LB_S = 14000.0, 0.35
+FLOW_SHARE = 0.48  # of the fuel flow through the left engine
 RADII_M = {"x": 2.6, "y": 3.1, "z": 3.9}
 LAT0, LON0 = math.radians(52.0), math.radians(4.7)
 FIELD_FT = 4600.0
@@ -105,6 +107,9 @@ def main() -> None:
         "delta_a": np.degrees(truth["da"]), "delta_r": np.degrees(truth["dr"]),
         "sat": temp - 273.15, "fuel_used": fuel_lb, "gps_lat": np.degrees(lat),
         "gps_lon": np.degrees(lon), "wow": wow,
+        # fuel flow per engine [lbs/hr], as the Citation's lh/rh_engine_FMF channels
+        "lh_engine_FMF": np.full(n, FLOW_SHARE * BURN_LB_S * 3600.0),
+        "rh_engine_FMF": np.full(n, (1 - FLOW_SHARE) * BURN_LB_S * 3600.0),
     }
     for name, v in channels.items():
         np.savetxt(OUT / f"{name}.txt", np.column_stack([t, v]), fmt=["%.2f", "%.8g"],
