@@ -273,13 +273,14 @@ class Recorder:
                 if pm.hasNode(f"{e}/n1")]
         nan = float("nan")
 
+        def engine_values() -> tuple[float, float]:
+            return (sum(f() for f in fuel),
+                    sum(f() for f in fans) / len(fans) if fans else nan)
+
+        self._engines = engine_values
         reads = self._read
-        if fans:
-            self.sample = lambda: [*(f() for f in reads), sum(f() for f in fuel),
-                                   sum(f() for f in fans) / len(fans)]
-        else:
-            self.sample = lambda: [*(f() for f in reads), sum(f() for f in fuel), nan]
+        self.sample = lambda: [*(f() for f in reads), *engine_values()]
 
     def sample(self) -> list[float]:  # replaced per instance by a closure (faster)
         """Current values of :data:`RECORD` and :data:`ENGINE_RECORD`, in JSBSim units."""
-        raise NotImplementedError
+        return [*(f() for f in self._read), *self._engines()]

@@ -58,7 +58,6 @@ _BLENDED = ("alpha", "tas", "mach", "h", "rho", "p", "q", "r", "phi", "theta", "
             "az", "de", "da", "dr", "vn_gps", "ve_gps", "mass")
 #: Engine channels written when the campaign holds them (older campaigns do not).
 _ENGINE = ("fuel_flow", "n1")
-_LB = u.LB  # kg per pound (exact)
 _LAT0, _LON0 = math.radians(52.0), math.radians(4.4)
 _T0_RECORD = 1000.0  # the recorder's clock does not start at zero
 
@@ -205,7 +204,7 @@ def _mapping(meta: dict, rate_hz: float, ramp_kg: float, radii: dict,
         f'S = "{meta["S"]:.6g} m^2"',
         f'b = "{meta["b"]:.6g} m"',
         f'cbar = "{meta["cbar"]:.6g} m"',
-        f'ramp_mass = "{ramp_kg / _LB:.6g} lb"',
+        f'ramp_mass = "{ramp_kg / u.LB:.6g} lb"',
         "radii_of_gyration = { " + ", ".join(f'{a} = "{radii[a]:.4g} m"' for a in "xyz")
         + " }",
         "",
@@ -321,12 +320,12 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
         "ax_g": cols["ax"] / u.G0, "ay_g": cols["ay"] / u.G0, "an_g": -cols["az"] / u.G0,
         "delta_e": np.degrees(cols["de"]), "delta_a": np.degrees(cols["da"]),
         "delta_r": np.degrees(cols["dr"]),
-        "fuel_used": (ramp - cols["mass"]) / _LB,
+        "fuel_used": (ramp - cols["mass"]) / u.LB,
         "gps_lat": np.degrees(lat), "gps_lon": np.degrees(lon),
     }
     engine = tuple(c for c in _ENGINE if c in cols)
     if "fuel_flow" in cols:
-        values["fuel_flow"] = cols["fuel_flow"] / _LB * 3600.0
+        values["fuel_flow"] = cols["fuel_flow"] / u.LB * 3600.0
     if "n1" in cols:
         values["n1"] = cols["n1"] * 100.0
     first = df.groupby("maneuver").head(1)

@@ -156,12 +156,14 @@ def _excitation(maneuvers: np.ndarray, n_ids: int, signals: np.ndarray) -> tuple
     signals = signals.reshape(len(maneuvers), -1)
     where = np.unique(maneuvers, return_inverse=True)[1]
     spread = np.full((n_ids, signals.shape[1]), np.nan)
-    for i in range(n_ids):
-        rows = signals[where == i]
-        for j in range(signals.shape[1]):
-            x = rows[:, j][np.isfinite(rows[:, j])]
-            if x.size > 1:
-                spread[i, j] = np.std(x)
+    for j in range(signals.shape[1]):
+        ok = np.isfinite(signals[:, j])
+        x, w = signals[ok, j], where[ok]
+        count = np.bincount(w, minlength=n_ids)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mean = np.bincount(w, x, minlength=n_ids) / count
+            var = np.bincount(w, (x - mean[w]) ** 2, minlength=n_ids) / count
+        spread[:, j] = np.where(count > 1, np.sqrt(var), np.nan)
     level = np.full(signals.shape[1], np.inf)
     for j in range(signals.shape[1]):
         finite = spread[:, j][np.isfinite(spread[:, j])]
