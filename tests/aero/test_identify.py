@@ -367,3 +367,34 @@ def test_a_validation_outside_the_identification_data_is_said(table):
                          r"scored on all of them", m) for m in messages), messages
     assert res.results["CZ"].validation["coverage"] == 0.0
     assert any("measure extrapolation" in w for w in res.warnings)
+
+
+def test_validation_maneuvers_stay_inside_the_mass_range_of_identification(table,
+                                                                         monkeypatch):
+    """Fuel burns over the flight: the first maneuver is the heaviest, the last the
+    lightest. A model with the mass as a variable is validated inside its identified mass
+    range, on a seed whose split without that rule held out the first or the last
+    maneuver."""
+    data = table.copy()
+    rng = np.random.default_rng(3)
+    data["alpha"] = rng.uniform(0.0, 0.2, len(data))   # one envelope for all maneuvers
+    data["mach"] = 0.5
+    data["true_CZ"] = true_cz(*(data[v].to_numpy() for v in ("alpha", "de", "mach", "qhat")))
+    data["CZ"] = data["true_CZ"] + 2e-3 * rng.standard_normal(len(data))
+    data["mass"] = 9000.0 - 0.05 * np.arange(len(data))
+    ends = {data["maneuver"].min(), data["maneuver"].max()}
+    settings = IdentificationSettings(coefficients=("CZ",), select=False,
+                                      structures={"CZ": Structure("CZ", ("alpha", "mass"))})
+
+    def held(seed):
+        res = identify(data, settings=replace(settings, seed=seed))
+        return res, set(res.validation["maneuver"].unique())
+
+    with monkeypatch.context() as m:
+        m.setattr(importlib.import_module("simplexspline.aero.identify"),
+                  "TEST_POINT_VARIABLES", ())
+        seed = next(s for s in range(20) if ends & held(s)[1])
+    res, validated = held(seed)
+    assert validated and not ends & validated
+    mass, ident = res.validation["mass"], res.identification["mass"]
+    assert mass.min() >= ident.min() and mass.max() <= ident.max()

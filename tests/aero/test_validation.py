@@ -177,3 +177,29 @@ def test_a_signal_only_one_maneuver_moves_stays_in_identification():
     for seed in range(8):
         val = split_by_maneuver(man, 0.25, seed=seed, groups=kind, excitation=signals)
         assert 4 not in np.unique(man[val])         # the only maneuver that moves signal 1
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_validation_maneuvers_lie_inside_the_identification_range_of_the_mass(seed):
+    """A flight burns fuel: the first maneuver is the heaviest, the last the lightest. A
+    held-out maneuver lies within the identification maneuvers' range of every test-point
+    variable (mass; gear down in one maneuver only), so no model that takes them as
+    variables meets its validation outside its identified range; NaN is ignored."""
+    rng = np.random.default_rng(seed)
+    n_man, n = 12, 50
+    man = np.repeat(np.arange(n_man), n)
+    mass = 9000.0 - 2.0 * np.arange(man.size) + rng.normal(0, 0.5, man.size)
+    gear = np.where(man == 5, 1.0, 0.0)
+    flap = np.full(man.size, np.nan)                # a channel the record does not hold
+    ranges = np.column_stack([mass, gear, flap])
+    plain = [split_by_maneuver(man, 0.25, seed=s) for s in range(40)]
+    assert any(np.isin([0, 5, n_man - 1], np.unique(man[v])).any() for v in plain)
+    val = split_by_maneuver(man, 0.25, seed=seed, ranges=ranges)
+    held = np.unique(man[val])
+    assert held.size >= 1 and not np.isin([0, 5, n_man - 1], held).any()
+    ident = ~val
+    for col in (mass, gear):
+        assert col[val].min() >= col[ident].min() and col[val].max() <= col[ident].max()
+    # Every maneuver at one mass: nothing to avoid, the draw is the plain one.
+    same = split_by_maneuver(man, 0.25, seed=seed, ranges=np.full((man.size, 1), 9000.0))
+    np.testing.assert_array_equal(same, split_by_maneuver(man, 0.25, seed=seed))

@@ -46,7 +46,11 @@ from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import multiplier_values, Structure
 from simplexspline.aero.selection.coverage import EnvelopeCells
 from simplexspline.aero.selection.diagnostics import collinearity, excitation
-from simplexspline.aero.variables import COEFFICIENTS, ENVELOPE_VARIABLES
+from simplexspline.aero.variables import (
+    COEFFICIENTS,
+    ENVELOPE_VARIABLES,
+    TEST_POINT_VARIABLES,
+)
 from simplexspline.aero.selection.validation import (
     PAPER_TABLE2,
     scores,
@@ -617,9 +621,11 @@ def _split(data, settings: IdentificationSettings, log):
     envelope = EnvelopeCells.from_data(env)
     cells = envelope.cell(env)
     excited = [c for c in settings.coefficients if c in data.columns]
+    held = [v for v in TEST_POINT_VARIABLES if v in data.columns]
     is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
                                seed=settings.seed, groups=groups, cells=cells,
-                               excitation=data[excited].to_numpy(dtype=float))
+                               excitation=data[excited].to_numpy(dtype=float),
+                               ranges=data[held].to_numpy(dtype=float) if held else None)
     ident, valid = data.loc[~is_val].copy(), data.loc[is_val].copy()
     # The metadata live in ``meta``; pandas deep-copies ``attrs`` on every column access
     # (0.26 s each with a campaign's reconstruction record), so the splits carry none.

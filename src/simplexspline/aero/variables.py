@@ -11,7 +11,7 @@ import math
 
 __all__ = ["CANDIDATE_VARIABLES", "COEFFICIENTS", "DEG", "ENVELOPE_VARIABLES",
            "LATERAL_COEFFICIENTS", "LATERAL_VARIABLES", "LONGITUDINAL_COEFFICIENTS",
-           "RATE_NAMES", "UNITS"]
+           "RATE_NAMES", "TEST_POINT_VARIABLES", "UNITS"]
 
 #: Radians per degree (multiply a value in degrees by ``DEG`` to get radians).
 DEG = math.pi / 180.0
@@ -47,6 +47,12 @@ LATERAL_VARIABLES: tuple[str, ...] = ("beta", "phat", "rhat", "da", "dr", "betad
 #: Variables that describe where in the flight envelope a sample lies: the coverage of the
 #: identification data is judged in them (:mod:`simplexspline.aero.selection.coverage`).
 ENVELOPE_VARIABLES: tuple[str, ...] = ("alpha", "beta", "mach")
+
+#: Candidate variables that hold (about) still within a maneuver and change between them:
+#: the mass as fuel burns and the configuration set per test point. A validation maneuver
+#: is held out only inside their identification range
+#: (:func:`~simplexspline.aero.selection.validation.split_by_maneuver`, ``ranges``).
+TEST_POINT_VARIABLES: tuple[str, ...] = ("mass", "flap", "gear", "speedbrake", "dte")
 
 #: Units of the variables and coefficients (SI, radians).
 UNITS = {

@@ -37,7 +37,8 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
                       conditions: np.ndarray | None = None,
                       keep: float = CONDITION_KEEP, cells: np.ndarray | None = None,
                       covered_keep: float = COVERED_KEEP,
-                      excitation: np.ndarray | None = None) -> np.ndarray:
+                      excitation: np.ndarray | None = None,
+                      ranges: np.ndarray | None = None) -> np.ndarray:
     """Choose whole maneuvers for validation.
 
     Parameters
@@ -76,6 +77,13 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         excite a signal. A record of a few maneuvers of one kind each (a short period, a
         Dutch roll, a roll) otherwise validated its roll model on a pitch maneuver: R^2
         below zero, measuring the noise.
+    ranges : ndarray, shape (N, m), optional
+        Variables that a maneuver holds about constant and that change between maneuvers
+        (the mass as fuel burns, the configuration): a maneuver is held out only while its
+        values lie within the range of the maneuvers left for identification (NaN is
+        ignored). The first and the last maneuver of a flight hold the extremes of the
+        mass; a model that took the mass as a variable then met its validation outside its
+        identified range, and the validation scored nothing (or an extrapolation).
 
     Returns
     -------
@@ -107,6 +115,8 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     chosen = []
     spread, level = (None, None) if excitation is None else _excitation(
         maneuvers, len(ids), np.asarray(excitation, dtype=float))
+    low, high = (None, None) if ranges is None else _maneuver_ranges(
+        maneuvers, len(ids), np.asarray(ranges, dtype=float))
 
     def take(i) -> bool:
         """Hold maneuver i out if its condition and cells allow it, and identification
@@ -114,6 +124,12 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         nonlocal left
         if counts[i] > room[cond[i]]:
             return False
+        if low is not None:
+            rest = ~np.isin(ids, chosen)
+            rest[i] = False
+            if not rest.any() or np.any((low[i] < np.fmin.reduce(low[rest], axis=0))
+                                        | (high[i] > np.fmax.reduce(high[rest], axis=0))):
+                return False
         if spread is not None:
             rest = ~np.isin(ids, chosen)
             rest[i] = False
@@ -170,6 +186,22 @@ def _excitation(maneuvers: np.ndarray, n_ids: int, signals: np.ndarray) -> tuple
         if finite.size and finite.max() > 0:
             level[j] = EXCITED * float(finite.max())
     return np.nan_to_num(spread, nan=-np.inf), level
+
+
+def _maneuver_ranges(maneuvers: np.ndarray, n_ids: int, values: np.ndarray) -> tuple:
+    """Smallest and largest finite value of every column within every maneuver, shapes
+    (n_ids, m) (NaN where a maneuver has none)."""
+    values = values.reshape(len(maneuvers), -1)
+    where = np.unique(maneuvers, return_inverse=True)[1]
+    low = np.full((n_ids, values.shape[1]), np.inf)
+    high = np.full((n_ids, values.shape[1]), -np.inf)
+    for j in range(values.shape[1]):
+        ok = np.isfinite(values[:, j])
+        np.minimum.at(low[:, j], where[ok], values[ok, j])
+        np.maximum.at(high[:, j], where[ok], values[ok, j])
+    none = ~np.isfinite(low)
+    low[none], high[none] = np.nan, np.nan
+    return low, high
 
 
 def _cover_excitation(ids: np.ndarray, spread: np.ndarray, level: np.ndarray, chosen: list,
