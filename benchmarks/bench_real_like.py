@@ -220,6 +220,13 @@ def main() -> None:
         print(f"| {c} | {_rms(e):.2e} | {bn:.1f} | {fmt('rms_true', '.2e')} | "
               f"{fmt('noise_rms', '.2e')} | {fmt('rms_true_over_noise', '.2f')} | "
               f"{at_truth:.2f} | {fmt('r2', '.3f')} |")
+    if ident and "beta_side_force" in result.validation.columns:
+        both = pd.concat([result.identification, result.validation])
+        side = both["beta_side_force"] != both["beta"]
+        print(f"\nsideslip from the side force (identify, {int(side.sum()):,} samples with "
+              f"gusts): RMS error {_rms((both['beta_side_force'] - both['true_beta'])[side]):.2e}"
+              f" rad against the kinematic {_rms((both['beta'] - both['true_beta'])[side]):.2e}"
+              f" rad there")
     print(f"\nseconds: simulate {t_sim:.0f}, import {t_import:.1f}, reconstruct {t_rec:.0f}, "
           f"identify {t_id:.0f}")
 

@@ -45,6 +45,7 @@ from simplexspline.aero.selection.search import (
 from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import multiplier_values, Structure
 from simplexspline.aero.selection.coverage import EnvelopeCells
+from simplexspline.aero.selection.side_force_sideslip import REFEREE_GAIN, choose_sideslip
 from simplexspline.aero.selection.diagnostics import collinearity, excitation
 from simplexspline.aero.variables import (
     COEFFICIENTS,
@@ -490,19 +491,21 @@ def identify(df, metadata: Mapping | None = None, *,
     t_start = time.perf_counter()
     meta = dict(df.attrs if metadata is None else metadata)
     structures = settings.starting_structures()
-    data, rec_note, used, settings, dropped = _identification_data(df, meta, settings,
-                                                                   structures, progress, log)
+    data, rec_note, used, settings, dropped, gusty = _identification_data(
+        df, meta, settings, structures, progress, log)
     ident, valid, coverage = _split(data, settings, log)
     columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
                if c in used or c in settings.selection.candidates}
     columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
-    results, notes = _fit_coefficients(structures, ident, valid, columns, coverage, settings,
-                                       source, progress, log)
+    results, notes, sideslip = _fit_all(structures, ident, valid, columns, coverage, settings,
+                                        source, progress, log, gusty)
     notes = dropped + notes
     prov = {"software": f"simplexspline {__version__}",
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "seconds": round(time.perf_counter() - t_start, 2),
             "reconstruction": rec_note}
+    if sideslip:
+        prov["sideslip"] = sideslip
     if source:
         prov["source"] = source
     _record_provenance(results, ident, meta, settings, prov)
@@ -526,6 +529,8 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
                                          THRUST_COEFFICIENT, FUEL_FLOW_THRUST_COEFFICIENT,
                                          FAN_SPEED_THRUST_COEFFICIENT))
     data, rec_note = _coefficient_data(df, meta, settings, progress, log)
+    gusty = _gusts_without_vane(data.attrs.get("reconstruction")
+                                or meta.get("reconstruction") or {})
     data = data.copy(deep=False)
     data.attrs = {}
     derived = {**angle_rates(data, meta), **thrust_coefficient(data, meta)}
@@ -575,7 +580,92 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
         raise FlightDataError(f"NaN or inf in column(s) {cols} in {int(bad_rows.sum())} rows "
                               f"of maneuver(s) {mans[:10].tolist()}: drop those maneuvers or "
                               "fill the gaps before identification")
-    return data, rec_note, used, settings, dropped
+    return data, rec_note, used, settings, dropped, gusty
+
+
+def _gusts_without_vane(record: Mapping) -> list:
+    """The maneuvers (as str) in which a reconstruction (its metadata record) had no
+    sideslip vane, had GPS, and found gusts: their kinematic sideslip misses the lateral
+    gusts (:mod:`simplexspline.aero.modelling.side_force_sideslip`)."""
+    out = []
+    for m, r in (record.get("maneuvers") or {}).items():
+        beta = str((r.get("observability") or {}).get("beta", ""))
+        if beta.startswith("estimated from the lateral kinematics") \
+                and float((r.get("gusts") or {}).get("std") or 0.0) > 0.0:
+            out.append(str(m))
+    return out
+
+
+def _fit_all(structures: Mapping, ident, valid, columns: Mapping, coverage: _Coverage,
+             settings: IdentificationSettings, source, progress: bool, log, gusty: list):
+    """Step 3 for every coefficient: :func:`_fit_coefficients`, in two stages when the
+    reconstruction found gusts without a sideslip vane (``gusty``: maneuvers): CY first on
+    the kinematic sideslip, then the others on the sideslip that the side force gives
+    through CY's model in those maneuvers, if the roll and yaw moments say it is the better
+    one (:mod:`simplexspline.aero.selection.side_force_sideslip`; ``beta_side_force`` in
+    both frames, the kinematic one stays in ``beta``). Returns (results, notes, record of
+    the sideslip or None)."""
+    coefs = tuple(settings.coefficients)
+    others = tuple(c for c in coefs if c != "CY")
+    lateral = [c for c in ("Cl", "Cn") if c in others]
+    if not gusty or "CY" not in coefs or not lateral or "beta" not in ident.columns:
+        return (*_fit_coefficients(structures, ident, valid, columns, coverage, settings,
+                                   source, progress, log), None)
+    first, notes = _fit_coefficients(structures, ident, valid, columns, coverage,
+                                      replace(settings, coefficients=("CY",)), source,
+                                      progress, log)
+    model = first["CY"].model
+    rows = {name: frame["maneuver"].astype(str).isin(gusty).to_numpy()
+            for name, frame in (("identification", ident), ("validation", valid))}
+    n_man = sum(int(frame["maneuver"][rows[name]].nunique())
+                for name, frame in (("identification", ident), ("validation", valid)))
+    head = f"no sideslip vane and gusts in {n_man} maneuver(s): "
+    choice = None
+    if "beta" in model.variables:
+        choice = choose_sideslip(model, ident, valid, rows["identification"],
+                                 rows["validation"], settings.selection, seed=settings.seed)
+        ident["beta_side_force"] = choice.identification
+        valid["beta_side_force"] = choice.validation
+    judged = "" if choice is None else ", ".join(
+        f"{c} {r:.2f}" for c, r in choice.ratios.items())
+    if choice is None or not choice.used:
+        why = ("CY's model does not take beta" if choice is None else
+               "the sideslip from the side force through CY's model did not explain the roll "
+               f"and yaw moments better out of sample (cross-validated error ratios {judged};"
+               f" needed below {REFEREE_GAIN})")
+        note = (head + f"{why}: the others keep the kinematic sideslip, which misses the "
+                "lateral gusts")
+        log(f"note: {note}")
+        rest, more = _fit_coefficients(structures, ident, valid, columns, coverage,
+                                       replace(settings, coefficients=others), source,
+                                       progress, log)
+        return {c: {**first, **rest}[c] for c in coefs}, notes + [note] + more, None
+    frames = {"identification": ident.assign(beta=choice.identification),
+              "validation": valid.assign(beta=choice.validation)}
+    cols = {**columns, "beta": choice.identification}
+    rest, more = _fit_coefficients(structures, frames["identification"],
+                                   frames["validation"], cols, coverage,
+                                   replace(settings, coefficients=others), source, progress,
+                                   log)
+    for c in others:
+        for k in (f"model_{c}", f"inside_{c}"):
+            valid[k] = frames["validation"][k]
+    record = {"source": "side force through CY's model (beta + (CY - CY_model) / "
+                        "(dCY/dbeta); cross-fitted by maneuver on the identification data) "
+                        "in the maneuvers with gusts; CY on the kinematic sideslip",
+              "maneuvers": sorted(gusty, key=lambda m: (len(m), m)),
+              "dCY_dbeta_per_rad": round(choice.slope, 4),
+              "correction_rms_rad": round(choice.correction_rms, 6),
+              "clipped": choice.clipped,
+              "referee_error_ratios": {c: round(r, 4) for c, r in choice.ratios.items()},
+              "coefficients": list(others)}
+    note = (head + f"{', '.join(others)} identified on the sideslip that the side force "
+            f"gives there through CY's model (dCY/dbeta {choice.slope:.3g} /rad; correction "
+            f"{choice.correction_rms:.2g} rad RMS; column beta_side_force; it explains the "
+            f"roll and yaw moments better out of sample: error ratios {judged}); CY on the "
+            "kinematic sideslip")
+    log(f"note: {note}")
+    return {c: {**first, **rest}[c] for c in coefs}, notes + [note] + more, record
 
 
 def _thrust_note(data, settings: IdentificationSettings, rec_note: Mapping,
@@ -737,6 +827,10 @@ def _record_provenance(results: Mapping, ident, meta: dict,
                                      "validation": {k: res.validation.get(k) for k in
                                                     ("rms", "rrms", "r2", "rms_true",
                                                      "rrms_true")}})
+        side = prov.get("sideslip")
+        if side and res.model.coefficient in side["coefficients"] \
+                and "beta" in res.model.variables:
+            res.model.provenance["sideslip"] = side
 
 
 def _identify_in_worker(*args) -> tuple:

@@ -340,7 +340,8 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
         wbar = 1.0 if w is None else float(np.mean(w[keep]))
         ne.merge(_prior_equations(structure, space, scaling, mscale, coarse,
                                   settings.prior_weight * wbar))
-        prov["prior"] = {"structure": cs.label(), "weight": settings.prior_weight}
+        prov["prior"] = {"structure": cs.label(), "degree": prior_degree,
+                         "weight": settings.prior_weight}
     spline = _solve(space, ne, ridge, settings.smoothing)
     prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
                 counts=counts.tolist(), nbasis=structure.nbasis,

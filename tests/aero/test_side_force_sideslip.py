@@ -1,0 +1,209 @@
+"""The sideslip from the side force through an identified CY model (no sideslip vane, gusts)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from simplexspline.aero.identify import IdentificationSettings, identify
+from simplexspline.aero.modelling.structure import Structure
+from simplexspline.aero.selection.search import PLAIN_FIT, fit_structure
+from simplexspline.aero.selection.side_force_sideslip import (
+    MAX_CORRECTION,
+    REFEREE_GAIN,
+    choose_sideslip,
+    cross_fitted_sideslip,
+    referee,
+    side_force_sideslip,
+)
+from simplexspline.errors import InputError
+
+from .synthetic import synthetic_table
+
+NOISE = 1e-3
+KINEMATIC = ("estimated from the lateral kinematics and GPS (no sideslip vane), zero mean "
+             "over the maneuver assumed")
+
+
+def _gusts(man: np.ndarray, t: np.ndarray, rng, size=0.006) -> np.ndarray:
+    """A lateral gust's sideslip per maneuver [rad]: slow (0.2-0.5 Hz), zero mean."""
+    out = np.zeros(man.size)
+    for m in np.unique(man):
+        k = man == m
+        f, ph = rng.uniform(0.2, 0.5, 2), rng.uniform(0, 2 * np.pi, 2)
+        out[k] = size * np.sum(np.sin(2 * np.pi * f[:, None] * t[k] + ph[:, None]), axis=0)
+    return out
+
+
+def _gusty_table(seed=0) -> pd.DataFrame:
+    """The synthetic flights, their coefficients following the true sideslip (``true_beta``),
+    and ``beta`` the kinematic one that misses a lateral gust."""
+    rng = np.random.default_rng(seed)
+    df = synthetic_table(seed=seed, noise=NOISE)
+    df["true_beta"] = df["beta"]
+    df["beta"] = df["true_beta"] - _gusts(df["maneuver"].to_numpy(), df["t"].to_numpy(), rng)
+    return df
+
+
+def _cy_model(df):
+    cols = {c: df[c].to_numpy() for c in ("beta", "dr", "da")}
+    return fit_structure(Structure("CY", ("beta", "dr", "da"), 2, 1), cols, df["CY"].to_numpy())
+
+
+def _rms(e) -> float:
+    return float(np.sqrt(np.mean(np.square(e))))
+
+
+def test_the_side_force_gives_the_sideslip_to_its_noise_through_a_right_model():
+    """Through a CY model of the true sideslip, the side force gives the sideslip to the
+    side-force noise over |CY_beta| (0.9), whatever the kinematic sideslip missed."""
+    df = _gusty_table()
+    model = _cy_model(df.assign(beta=df["true_beta"]))
+    rows = df["maneuver"].to_numpy() % 2 == 0           # the maneuvers with gusts
+    sf = side_force_sideslip(model, df, rows)
+    assert _rms((sf.beta - df["true_beta"])[rows]) == pytest.approx(NOISE / 0.9, rel=0.1)
+    np.testing.assert_array_equal(sf.beta[~rows], df["beta"].to_numpy()[~rows])
+    assert sf.slope == pytest.approx(-0.9, abs=0.02)
+    assert sf.correction_rms == pytest.approx(_rms(sf.beta[rows] - df["beta"][rows]))
+    assert sf.clipped == 0
+    # nothing to correct: the kinematic sideslip as it is
+    none = side_force_sideslip(model, df, np.zeros(len(df), bool))
+    np.testing.assert_array_equal(none.beta, df["beta"].to_numpy())
+
+
+def test_through_the_model_fitted_on_the_kinematic_sideslip_the_error_halves():
+    """As identify does it: CY's model is fitted on the kinematic sideslip, whose error
+    (the gusts) attenuates its slope by var(beta) / (var(beta) + var(gust)) (errors in
+    variables); the side force's sideslip then carries that scale error, and its error is
+    below 0.6 times the kinematic one's."""
+    df = _gusty_table()
+    model = _cy_model(df)
+    rows = np.ones(len(df), bool)
+    sf = side_force_sideslip(model, df, rows)
+    kept = np.var(df["true_beta"]) / np.var(df["beta"] - df["beta"].mean())
+    assert sf.slope == pytest.approx(-0.9 * min(kept, 1 / kept), rel=0.1)
+    assert _rms(sf.beta - df["true_beta"]) < 0.6 * _rms(df["beta"] - df["true_beta"])
+
+
+def test_corrections_are_clipped_and_bad_models_refused():
+    df = _gusty_table()
+    model = _cy_model(df)
+    wild = df.assign(CY=df["CY"] + np.where(df["maneuver"] == 0, 0.5, 0.0))   # a glitch
+    sf = side_force_sideslip(model, wild, np.ones(len(df), bool))
+    k = (df["maneuver"] == 0).to_numpy()
+    assert sf.clipped == k.sum()
+    np.testing.assert_allclose(np.abs(sf.beta[k] - df["beta"].to_numpy()[k]), MAX_CORRECTION)
+    cols = {c: df[c].to_numpy() for c in ("dr", "da")}
+    no_beta = fit_structure(Structure("CY", ("dr", "da"), 1, 0), cols, df["CY"].to_numpy())
+    with pytest.raises(InputError, match="needs a CY model with 'beta'"):
+        side_force_sideslip(no_beta, df, np.ones(len(df), bool))
+    flat = df.assign(CY=0.15 * df["dr"])
+    with pytest.raises(InputError, match="dCY/dbeta is 0"):
+        side_force_sideslip(_cy_model(flat.assign(CY=0.0 * df["beta"])), flat,
+                            np.ones(len(df), bool))
+
+
+def test_cross_fitted_sideslip_is_out_of_sample_and_still_better():
+    """Each fold through CY's structure refitted without it: not the in-sample correction,
+    as good on the data as through the full model (the gusts are not in CY's structure)."""
+    df = _gusty_table()
+    model = _cy_model(df)
+    rows = np.ones(len(df), bool)
+    inside = side_force_sideslip(model, df, rows)
+    crossed = cross_fitted_sideslip(model, df, rows, PLAIN_FIT)
+    assert not np.allclose(crossed.beta, inside.beta)
+    assert _rms(crossed.beta - inside.beta) < 0.2 * _rms(inside.beta - df["beta"])
+    assert _rms(crossed.beta - df["true_beta"]) < 0.6 * _rms(df["beta"] - df["true_beta"])
+    assert crossed.slope == pytest.approx(inside.slope, rel=0.05)
+    with pytest.raises(InputError, match="at least two maneuvers"):
+        cross_fitted_sideslip(model, df[df["maneuver"] == 0], rows[:800], PLAIN_FIT)
+
+
+def test_the_referee_prefers_the_sideslip_that_explains_the_moments():
+    df = _gusty_table()
+    truth, kinematic = df["true_beta"].to_numpy(), df["beta"].to_numpy()
+    better = referee(df, kinematic, truth)
+    assert set(better) == {"Cl", "Cn"} and all(r < REFEREE_GAIN for r in better.values())
+    noisy = kinematic + 0.02 * np.random.default_rng(0).standard_normal(len(df))
+    assert all(r > 1.0 for r in referee(df, kinematic, noisy).values())
+    assert referee(df[df["maneuver"] == 0], kinematic[:800], truth[:800]) == {}
+    assert referee(df.drop(columns=["Cl", "Cn"]), kinematic, truth) == {}
+
+
+def test_a_side_force_model_that_explains_no_gust_is_refused():
+    """A side force with a disturbance of its own (not the air's sideslip: the roll and
+    yaw moments do not see it) makes a sideslip that explains them worse: refused. The
+    gusts' side force is taken."""
+    df = _gusty_table()
+    rows = np.ones(len(df), bool)
+    good = choose_sideslip(_cy_model(df), df, df, rows, rows, PLAIN_FIT)
+    assert good.used and all(r < REFEREE_GAIN for r in good.ratios.values())
+    rng = np.random.default_rng(5)
+    junk = df.assign(beta=df["true_beta"],
+                     CY=df["CY"] + _gusts(df["maneuver"].to_numpy(), df["t"].to_numpy(),
+                                          rng, size=0.02))
+    bad = choose_sideslip(_cy_model(junk), junk, junk, rows, rows, PLAIN_FIT)
+    assert not bad.used and min(bad.ratios.values()) > 1.0
+    one = df[df["maneuver"] == 0]
+    lone = choose_sideslip(_cy_model(df), one, one, rows[:800], rows[:800], PLAIN_FIT)
+    assert not lone.used and lone.ratios == {}
+    np.testing.assert_array_equal(lone.identification, one["beta"].to_numpy())
+
+
+def _reconstructed(df, gusty=True):
+    """The table as a reconstruction without sideslip vane leaves it: its record says so,
+    with gusts found in every maneuver (or none)."""
+    out = df.copy()
+    out.attrs = {**df.attrs, "reconstruction": {"maneuvers": {
+        str(m): {"observability": {"beta": KINEMATIC},
+                 "gusts": {"std": 1.0 if gusty else 0.0, "length_m": 300.0}}
+        for m in df["maneuver"].unique()}}}
+    return out
+
+
+def test_identify_fits_the_roll_and_yaw_models_on_the_side_force_sideslip():
+    """Cl and Cn in beta: on the kinematic sideslip their models carry the gusts'
+    -0.08 x 1e-2 and 0.1 x 1e-2; on the side force's they reach the noise. CY keeps the
+    kinematic sideslip; the note, the provenance and the column say what was done."""
+    df = _gusty_table(1)
+    settings = IdentificationSettings(
+        coefficients=("CY", "Cl", "Cn"), select=False,
+        structures={"CY": Structure("CY", ("beta", "dr", "da"), 2, 1),
+                    "Cl": Structure("Cl", ("beta", "da", "phat", "rhat"), 2, 1),
+                    "Cn": Structure("Cn", ("beta", "dr", "rhat"), 2, 1)})
+    plain = identify(_reconstructed(df, gusty=False), settings=settings)
+    aided = identify(_reconstructed(df), settings=settings)
+    assert "beta_side_force" not in plain.validation.columns
+    for c in ("Cl", "Cn"):
+        before = plain.results[c].validation["rms_true"]
+        after = aided.results[c].validation["rms_true"]
+        assert after < 0.6 * before, (c, before, after)
+        assert after < 1.5 * aided.results[c].validation["noise_rms"]
+    assert aided.results["CY"].validation == plain.results["CY"].validation
+    v = aided.validation
+    assert _rms(v["beta_side_force"] - v["true_beta"]) < \
+        0.6 * _rms(v["beta"] - v["true_beta"])
+    assert any("no sideslip vane and gusts" in n and "Cl, Cn identified on the sideslip" in n
+               for n in aided.warnings)
+    record = aided.results["Cl"].model.provenance["sideslip"]
+    assert record["coefficients"] == ["Cl", "Cn"] and record["dCY_dbeta_per_rad"] < 0
+
+
+def test_identify_keeps_the_kinematic_sideslip_when_the_referee_refuses():
+    df = _gusty_table(1)
+    rng = np.random.default_rng(2)
+    junk = df.assign(beta=df["true_beta"],
+                     CY=df["CY"] + _gusts(df["maneuver"].to_numpy(), df["t"].to_numpy(), rng,
+                                          size=0.02))
+    settings = IdentificationSettings(
+        coefficients=("CY", "Cn"), select=False,
+        structures={"CY": Structure("CY", ("beta", "dr", "da"), 2, 1),
+                    "Cn": Structure("Cn", ("beta", "dr", "rhat"), 2, 1)})
+    plain = identify(_reconstructed(junk, gusty=False), settings=settings)
+    refused = identify(_reconstructed(junk), settings=settings)
+    assert refused.results["Cn"].validation == plain.results["Cn"].validation
+    assert "sideslip" not in refused.provenance
+    assert any("did not explain the roll and yaw moments better out of sample" in n
+               and "the others keep the kinematic sideslip" in n for n in refused.warnings)
+    assert "beta_side_force" in refused.validation.columns
