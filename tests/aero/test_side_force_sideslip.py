@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -207,3 +209,20 @@ def test_identify_keeps_the_kinematic_sideslip_when_the_referee_refuses():
     assert any("did not explain the roll and yaw moments better out of sample" in n
                and "the others keep the kinematic sideslip" in n for n in refused.warnings)
     assert "beta_side_force" in refused.validation.columns
+
+
+def test_a_side_force_that_cannot_give_the_sideslip_is_said_not_raised(monkeypatch):
+    def flat(*_args, **_kw):
+        raise InputError("the CY model's dCY/dbeta is 0 over the rows asked for")
+
+    monkeypatch.setattr(importlib.import_module("simplexspline.aero.identify"),
+                        "choose_sideslip", flat)
+    df = _gusty_table(1)
+    settings = IdentificationSettings(
+        coefficients=("CY", "Cn"), select=False,
+        structures={"CY": Structure("CY", ("beta", "dr"), 1, 0),
+                    "Cn": Structure("Cn", ("beta", "dr"), 1, 0)})
+    res = identify(_reconstructed(df), settings=settings)
+    assert set(res.results) == {"CY", "Cn"} and "sideslip" not in res.provenance
+    assert any("the side force cannot give the sideslip (the CY model's dCY/dbeta is 0"
+               in n for n in res.warnings)

@@ -61,7 +61,7 @@ from simplexspline.aero.selection.validation import (
 from simplexspline._files import jsonable, locked, remove_stale, temp_dir
 from simplexspline._compute_slots import busy_seconds, compute_slot, init_worker
 from simplexspline._version import __version__
-from simplexspline.errors import FlightDataError, InputError
+from simplexspline.errors import FlightDataError, InputError, SimplexSplineError
 from simplexspline.aero.report.page import write_report
 from simplexspline.aero.reconstruction.reconstruct import reconstruct
 from simplexspline.spline import kernels
@@ -586,7 +586,7 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
 def _gusts_without_vane(record: Mapping) -> list:
     """The maneuvers (as str) in which a reconstruction (its metadata record) had no
     sideslip vane, had GPS, and found gusts: their kinematic sideslip misses the lateral
-    gusts (:mod:`simplexspline.aero.modelling.side_force_sideslip`)."""
+    gusts (:mod:`simplexspline.aero.selection.side_force_sideslip`)."""
     out = []
     for m, r in (record.get("maneuvers") or {}).items():
         beta = str((r.get("observability") or {}).get("beta", ""))
@@ -620,19 +620,24 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, coverage: _Cov
     n_man = sum(int(frame["maneuver"][rows[name]].nunique())
                 for name, frame in (("identification", ident), ("validation", valid)))
     head = f"no sideslip vane and gusts in {n_man} maneuver(s): "
-    choice = None
+    choice, why = None, "CY's model does not take beta"
     if "beta" in model.variables:
-        choice = choose_sideslip(model, ident, valid, rows["identification"],
-                                 rows["validation"], settings.selection, seed=settings.seed)
-        ident["beta_side_force"] = choice.identification
-        valid["beta_side_force"] = choice.validation
+        try:
+            choice = choose_sideslip(model, ident, valid, rows["identification"],
+                                     rows["validation"], settings.selection,
+                                     seed=settings.seed)
+        except SimplexSplineError as exc:     # e.g. a CY model flat in beta
+            why = f"the side force cannot give the sideslip ({exc})"
+        else:
+            ident["beta_side_force"] = choice.identification
+            valid["beta_side_force"] = choice.validation
     judged = "" if choice is None else ", ".join(
         f"{c} {r:.2f}" for c, r in choice.ratios.items())
     if choice is None or not choice.used:
-        why = ("CY's model does not take beta" if choice is None else
-               "the sideslip from the side force through CY's model did not explain the roll "
-               f"and yaw moments better out of sample (cross-validated error ratios {judged};"
-               f" needed below {REFEREE_GAIN})")
+        if choice is not None:
+            why = ("the sideslip from the side force through CY's model did not explain the "
+                   f"roll and yaw moments better out of sample (cross-validated error ratios "
+                   f"{judged or 'none: too few maneuvers'}; needed below {REFEREE_GAIN})")
         note = (head + f"{why}: the others keep the kinematic sideslip, which misses the "
                 "lateral gusts")
         log(f"note: {note}")
