@@ -43,7 +43,7 @@ from simplexspline.aero.derivatives import derivatives
 from simplexspline.sim import FlightProtocol, SensorModel, Wind, write_channel_record
 from simplexspline.sim.whole_flight import WholeFlight
 
-from bench_real_like import installation, with_truth
+from bench_real_like import installation, thrust_in_truth, with_truth
 
 COEF = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 TRUTH = ("alpha", "beta", "tas", *COEF)
@@ -222,8 +222,7 @@ def main() -> None:
     df = flight.run()
     t_sim = time.perf_counter() - t0
     segments = df.attrs["flight"]["segments"]
-    if "thrust_x" in df:   # the record has no thrust: CX's truth is the measured one
-        df["true_CX"] = df["true_CX"] + df["thrust_x"] / (df["true_qbar"] * df.attrs["S"])
+    thrust_in_truth(df)    # the record has no thrust: the truth holds it as the data do
     truth = true_slopes(df, segments)
     results = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -241,8 +240,8 @@ def main() -> None:
           + f"; SensorModel.real_like() (installation "
           + ("given" if args.installation else "not given") + "), steady wind "
           f"{math.hypot(*df.attrs['simulator']['wind']['drawn']['ned_mps'][:2]):.1f} m/s + "
-          f"{args.turbulence} turbulence; simulated in {t_sim:.0f} s; CX includes thrust "
-          "(no thrust channel), its truth too\n")
+          f"{args.turbulence} turbulence; simulated in {t_sim:.0f} s; the coefficients include "
+          "the thrust and its moments (no thrust channel), their truth too\n")
     print(table(results, {"truth": truth}))
     for r in results:
         for w in r.get("warnings", []):

@@ -323,13 +323,18 @@ def test_coefficients_the_data_cannot_give_are_left_out_and_said(table):
 
 def test_thrust_left_in_cx_is_said_with_what_the_search_was_offered(table):
     """Coefficients reconstructed without thrust (metadata ``reconstruction.thrust`` =
-    'included'): the summary says CX holds it and whether the fuel flow's tc_ff was
-    offered; thrust subtracted, nothing is said."""
+    'included'): the summary says CX holds it and Cm its moment (when either is modelled),
+    and whether the fuel flow's tc_ff was offered; thrust subtracted, nothing is said."""
     settings = IdentificationSettings(coefficients=("CX",), select=False, workers=1)
     meta = {**table.attrs, "S": 30.0, "reconstruction": {"thrust": "included"}}
     res = identify(table, meta, settings=settings)
-    assert sum("hold no fuel flow or fan speed: CX cannot follow the throttle" in w
+    assert sum("hold no fuel flow or fan speed: they cannot follow the throttle" in w
+               and w.startswith("CX holds the thrust and Cm its pitching moment")
                for w in res.warnings) == 1
+    pitch = identify(table, meta, settings=replace(settings, coefficients=("Cm",)))
+    assert sum("Cm its pitching moment" in w for w in pitch.warnings) == 1
+    lateral = identify(table, meta, settings=replace(settings, coefficients=("Cl",)))
+    assert not any("holds the thrust" in w for w in lateral.warnings)
     fan = table.assign(n1=0.7 + 0.01 * (table["maneuver"] % 5))
     res = identify(fan, meta, settings=settings)
     assert sum("offered the fan-speed thrust coefficient tc_n1" in w

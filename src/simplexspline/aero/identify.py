@@ -675,28 +675,30 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, coverage: _Cov
 
 def _thrust_note(data, settings: IdentificationSettings, rec_note: Mapping,
                  meta: Mapping) -> str:
-    """What CX holds when the reconstruction left the thrust in it (this run's, or the
-    one that made the data): the note, or '' (thrust subtracted, CX not modelled, or
-    coefficients from elsewhere)."""
+    """What CX and Cm hold when the reconstruction left the thrust in the coefficients
+    (this run's, or the one that made the data): the note, or '' (thrust subtracted,
+    neither modelled, or coefficients from elsewhere)."""
     if rec_note.get("reconstructed"):
         included = not rec_note.get("thrust_subtracted")
     else:
         included = (meta.get("reconstruction") or {}).get("thrust") == "included"
-    if "CX" not in settings.coefficients or not included:
+    if not included or not {"CX", "Cm"} & set(settings.coefficients):
         return ""
+    # the thrust line of a real installation passes off the c.g.: on the simulated f16 its
+    # moment was 0.8-1.8e-3 of Cm, from test point to test point, about its noise
+    holds = ("CX holds the thrust and Cm its pitching moment (a thrust line off the c.g.) "
+             "(no thrust columns, no thrust model")
     if FUEL_FLOW_THRUST_COEFFICIENT in data.columns:
-        return ("CX holds the thrust (no thrust columns, no thrust model); the search is "
-                "offered the fuel-flow thrust coefficient tc_ff = fuel_flow * 4e4 m/s / "
-                "(qbar S) so that CX may follow the throttle")
+        return (f"{holds}); the search is offered the fuel-flow thrust coefficient tc_ff = "
+                "fuel_flow * 4e4 m/s / (qbar S) so that they may follow the throttle")
     if FAN_SPEED_THRUST_COEFFICIENT in data.columns:
-        return ("CX holds the thrust (no thrust columns, no thrust model, no fuel flow); the "
-                "search is offered the fan-speed thrust coefficient tc_n1 = (n1 a0 / V)^2 "
-                "(a turbofan's) so that CX may follow the throttle")
+        return (f"{holds}, no fuel flow); the search is offered the fan-speed thrust "
+                "coefficient tc_n1 = (n1 a0 / V)^2 (a turbofan's) so that they may follow "
+                "the throttle")
     why = ("the fuel flow is there, but tc_ff also needs rho, tas and the wing area S"
            if "fuel_flow" in data.columns else "the data hold no fuel flow or fan speed")
-    return (f"CX holds the thrust (no thrust columns, no thrust model) and {why}: CX cannot "
-            "follow the throttle between test points; map the engines' fuel flow "
-            "(fuel_flow) or fan speed (n1), or give a thrust model")
+    return (f"{holds}) and {why}: they cannot follow the throttle between test points; map "
+            "the engines' fuel flow (fuel_flow) or fan speed (n1), or give a thrust model")
 
 
 @dataclass(frozen=True)
