@@ -222,8 +222,8 @@ def main() -> None:
     df = flight.run()
     t_sim = time.perf_counter() - t0
     segments = df.attrs["flight"]["segments"]
+    truth = true_slopes(df, segments)   # the aerodynamic slopes: before the thrust
     thrust_in_truth(df)    # the record has no thrust: the truth holds it as the data do
-    truth = true_slopes(df, segments)
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         record = write_channel_record(df, args.keep or Path(tmp) / "record", rate_hz=10.0)
