@@ -15,6 +15,7 @@ from simplexspline.aero.reconstruction.campaign_calibration import (
     campaign_priors,
     combine_campaign,
     combine_estimates,
+    lone_in_gusts,
     outlier_threshold,
     prior_conflicts,
     spread_between,
@@ -217,3 +218,21 @@ def test_a_posterior_that_left_its_prior_too_far_is_a_conflict():
     assert set(found) == {"bp"} and found["bp"] == pytest.approx(10.0)
     assert prior_conflicts({"br": (5.0, (2e-5) ** 2)}, {"br": (0.0, 2e-5)}) == {}
     assert prior_conflicts({}, {}) == {}
+
+
+def test_a_lone_turbulent_estimate_of_an_airspeed_bias_is_named_not_used():
+    """The A-4 sortie's case: of two turns only the second observes the airspeed bias
+    (-2.51 +- 0.89 m/s, truth 0), and it had gusts: reported in ``excluded``'s form, with no
+    distance. The vane offset that two turns give, a lone estimate from a maneuver in
+    still air, and a constant outside ``states`` stay."""
+    est = {"btas": [(-0.70, 1.66, 2.0, 6), (-2.51, 0.885, 2.0, 14)],
+           "balpha": [(0.013, 0.006, 0.02, 6), (0.009, 0.001, 0.02, 14)],
+           "bbeta": [(0.004, 0.002, 0.02, 3)]}
+    combined, _ = combine_campaign(est)
+    assert combined["btas"].used == (14,)
+    lone = lone_in_gusts(combined, {6, 14, 3}, ("btas", "bbeta"))
+    assert lone == {"btas": {14: (combined["btas"].value, combined["btas"].sigma, None)},
+                    "bbeta": {3: (combined["bbeta"].value, combined["bbeta"].sigma, None)}}
+    assert lone_in_gusts(combined, {6}, ("btas", "bbeta")) == {}          # still air
+    assert "balpha" not in lone_in_gusts(combined, {6, 14}, ("btas", "balpha"))
+    assert lone_in_gusts({"btas": None}, {14}, ("btas",)) == {}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
@@ -616,6 +617,15 @@ def test_a_maneuver_whose_air_data_disagree_is_left_out_of_the_campaign_calibrat
     assert abs(value - clean[0]) < 3 * max(sd, clean[1]), (value, sd, clean)
     assert f"maneuver {bad}'s estimate" in rec.summary()
     assert noisy_reconstruction.calibration_excluded == {}
+
+
+def test_a_calibration_left_unused_alone_in_gusts_is_said(noisy_reconstruction):
+    """An estimate that ``lone_in_gusts`` left out (no distance) gets its own summary line:
+    which maneuver, the value, why it was not used."""
+    rec = dataclasses.replace(noisy_reconstruction,
+                              calibration_excluded={"btas": {14: (-2.51, 0.885, None)}})
+    assert "btas: maneuver 14's estimate -2.51 +- 0.89 not used as the campaign calibration: " \
+        "the only maneuver that observes it had gusts" in rec.summary()
 
 
 @pytest.fixture(scope="module")

@@ -41,7 +41,8 @@ from dataclasses import dataclass, field
 from statistics import NormalDist
 
 __all__ = ["FALSE_ALARM", "OBSERVED", "CombinedEstimate", "campaign_priors", "combine_campaign",
-           "combine_estimates", "outlier_threshold", "prior_conflicts", "spread_between"]
+           "combine_estimates", "lone_in_gusts", "outlier_threshold", "prior_conflicts",
+           "spread_between"]
 
 #: Chance that an honest campaign loses an estimate (a Bonferroni bound over its constants
 #: and their estimates).
@@ -177,6 +178,31 @@ def combine_campaign(estimates: dict) -> tuple[dict, dict]:
         if not new:
             return combined, excluded
         distrusted |= new
+
+
+def lone_in_gusts(combined: dict, gusty: set, states: Sequence[str]) -> dict:
+    """The combinations that rest on one estimate from a maneuver with gusts, of the
+    constants ``states``: nothing checks such an estimate, and turbulence biases it beyond
+    its sigma where it trades against the horizontal wind (an airspeed bias: a simulated
+    A-4 sortie's lone turn gave -2.51 +- 0.89 m/s for a true 0).
+
+    Parameters
+    ----------
+    combined : dict of str to CombinedEstimate or None
+        From :func:`combine_campaign`.
+    gusty : set
+        The maneuvers in which gusts were found.
+    states : sequence of str
+        The constants the rule applies to.
+
+    Returns
+    -------
+    dict of str to dict
+        Constant -> {maneuver: (value, sigma, None)}, in the form of ``combine_campaign``'s
+        ``excluded`` (no distance: there was nothing to measure it from).
+    """
+    return {k: {c.used[0]: (c.value, c.sigma, None)} for k, c in combined.items()
+            if k in states and c is not None and len(c.used) == 1 and c.used[0] in gusty}
 
 
 def spread_between(estimates: Sequence[tuple], value: float) -> float:
