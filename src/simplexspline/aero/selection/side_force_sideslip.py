@@ -6,7 +6,8 @@ that sideslip misses the lateral gusts: the air's velocity across the aircraft c
 faster than any wind state follows, and no channel of such a record measures it. On a
 simulated 10 Hz f16 record in light turbulence the kinematic sideslip was off by 6.9e-3
 rad RMS, and the roll and yaw models identified on it by 2-3x their noise (validation R^2
-of Cl down to -0.32 on one seed).
+of Cl -0.32 on seed 5 of that record, CY, Cl and Cn identified alone; 0.49 on the side
+force's sideslip).
 
 The lateral accelerometer does see the gusts: the side force follows the sideslip of the
 air, ``CY = CY(beta, ...)``. With a model of CY identified on the kinematic sideslip, the
