@@ -149,7 +149,8 @@ def _folds(data, seed: int) -> np.ndarray | None:
 
 
 def cross_fitted_sideslip(model: AeroModel, data, rows: np.ndarray,
-                          settings: SelectionSettings, *, seed: int = 0) -> SideForceSideslip:
+                          settings: SelectionSettings, *, seed: int = 0,
+                          folds: np.ndarray | None = None) -> SideForceSideslip:
     """:func:`side_force_sideslip` on the data the model was identified on, each fold of
     maneuvers through the model's structure refitted on the other folds (same settings and
     prior degree), so that the correction is out of sample as on new maneuvers.
@@ -165,6 +166,8 @@ def cross_fitted_sideslip(model: AeroModel, data, rows: np.ndarray,
         The settings the model was fitted with.
     seed : int
         Seed of the folds.
+    folds : ndarray of int, shape (N,), optional
+        The folds by maneuver, when the caller has them.
 
     Returns
     -------
@@ -176,7 +179,7 @@ def cross_fitted_sideslip(model: AeroModel, data, rows: np.ndarray,
     InputError
         Fewer than two maneuvers.
     """
-    folds = _folds(data, seed)
+    folds = _folds(data, seed) if folds is None else folds
     if folds is None:
         raise InputError("cross-fitting the side force's sideslip needs at least two "
                          "maneuvers")
@@ -214,7 +217,8 @@ def _lateral_design(data, beta: np.ndarray) -> np.ndarray:
 
 
 def referee(data, beta_a: np.ndarray, beta_b: np.ndarray,
-            coefficients: Sequence[str] = ("Cl", "Cn"), *, seed: int = 0) -> dict:
+            coefficients: Sequence[str] = ("Cl", "Cn"), *, seed: int = 0,
+            folds: np.ndarray | None = None) -> dict:
     """How much better the roll and yaw moments are explained with sideslip ``beta_b`` than
     with ``beta_a``: the ratio of the cross-validated (folds by maneuver) mean square error
     of a model linear in the lateral variables, b over a, per coefficient.
@@ -229,6 +233,8 @@ def referee(data, beta_a: np.ndarray, beta_b: np.ndarray,
     coefficients : sequence of str
         Those of them in ``data`` are judged.
     seed : int
+    folds : ndarray of int, shape (N,), optional
+        The folds by maneuver, when the caller has them.
 
     Returns
     -------
@@ -236,7 +242,7 @@ def referee(data, beta_a: np.ndarray, beta_b: np.ndarray,
         Ratio per coefficient judged (below 1: ``beta_b`` explains it better); empty with
         fewer than two maneuvers or none of the coefficients.
     """
-    folds = _folds(data, seed)
+    folds = _folds(data, seed) if folds is None else folds
     out: dict = {}
     if folds is None:
         return out
@@ -310,11 +316,12 @@ def choose_sideslip(model: AeroModel, ident, valid, rows_ident: np.ndarray,
     SideslipChoice
     """
     kinematic = ident["beta"].to_numpy(dtype=float)
-    if _folds(ident, seed) is None:
+    folds = _folds(ident, seed)
+    if folds is None:
         return SideslipChoice(False, kinematic, valid["beta"].to_numpy(dtype=float))
-    fitted = cross_fitted_sideslip(model, ident, rows_ident, settings, seed=seed)
+    fitted = cross_fitted_sideslip(model, ident, rows_ident, settings, folds=folds)
     on_valid = side_force_sideslip(model, valid, rows_valid)
-    ratios = referee(ident, kinematic, fitted.beta, seed=seed)
+    ratios = referee(ident, kinematic, fitted.beta, folds=folds)
     finite = [r for r in ratios.values() if np.isfinite(r) and r > 0]
     used = bool(finite) and float(np.exp(np.mean(np.log(finite)))) < REFEREE_GAIN
     return SideslipChoice(used, fitted.beta, on_valid.beta, ratios, fitted.slope,

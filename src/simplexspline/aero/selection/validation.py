@@ -124,15 +124,13 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         nonlocal left
         if counts[i] > room[cond[i]]:
             return False
+        rest = ~np.isin(ids, chosen)          # the maneuvers identification would keep
+        rest[i] = False
         if low is not None:
-            rest = ~np.isin(ids, chosen)
-            rest[i] = False
             if not rest.any() or np.any((low[i] < np.fmin.reduce(low[rest], axis=0))
                                         | (high[i] > np.fmax.reduce(high[rest], axis=0))):
                 return False
         if spread is not None:
-            rest = ~np.isin(ids, chosen)
-            rest[i] = False
             moved = spread[i] >= level
             if np.any(moved & ~np.any(rest[:, None] & (spread >= level), axis=0)):
                 return False
