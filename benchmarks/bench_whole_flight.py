@@ -19,9 +19,17 @@ derivatives of the identified models (``CL_alpha``, ``Cm_alpha``) against the si
 truth (a least-squares fit of the true coefficients over the flown maneuvers). Prints one
 Markdown table.
 
+With ``--design eigenmotion`` the sortie is a flight-test course's instead (the design of
+the real training-flight records): a stationary measurement at each of six airspeeds at one
+altitude (trimmed straight flight, 60-90 s, logged as maneuvers), and between them single
+pulses and doublets at small amplitudes with long free responses (phugoid, short period,
+aperiodic roll, Dutch roll: :meth:`FlightProtocol.eigenmotion`); no 3211s, no sums of
+sines.
+
 Usage::
 
     python benchmarks/bench_whole_flight.py                         # 24 maneuvers, seed 1
+    python benchmarks/bench_whole_flight.py --design eigenmotion --maneuvers 12
     python benchmarks/bench_whole_flight.py --maneuvers 30 --variants excitation
     python benchmarks/bench_whole_flight.py --aircraft c172p --seed 5 --installation
 """
@@ -40,13 +48,24 @@ import pandas as pd
 
 from simplexspline.aero import identify, import_record
 from simplexspline.aero.derivatives import derivatives
-from simplexspline.sim import FlightProtocol, SensorModel, Wind, write_channel_record
+from simplexspline.sim import (FlightProtocol, SensorModel, Wind, get_aircraft,
+                               write_channel_record)
 from simplexspline.sim.whole_flight import WholeFlight
 
 from bench_real_like import installation, thrust_in_truth, with_truth
 
 COEF = ("CX", "CY", "CZ", "Cl", "Cm", "Cn")
 TRUTH = ("alpha", "beta", "tas", *COEF)
+
+
+def course_legs(aircraft: str, n: int = 6) -> list:
+    """A flight-test course's stationary series: ``n`` airspeeds evenly spread between the
+    profile's second and second-to-last grid airspeed, fastest first, at the grid altitude
+    a third up (no aircraft constant)."""
+    profile = get_aircraft(aircraft)
+    alts, speeds = sorted(profile.altitudes_m), sorted(profile.airspeeds_mps)
+    lo, hi = speeds[min(1, len(speeds) - 1)], speeds[max(0, len(speeds) - 2)]
+    return [(alts[len(alts) // 3], float(v)) for v in np.linspace(hi, lo, n)]
 
 
 def _rms(x) -> float:
@@ -206,6 +225,9 @@ def main() -> None:
                     help="comma-separated: excitation (no maneuver list), list")
     ap.add_argument("--keep", type=Path, default=None,
                     help="write the record into this new directory and keep it")
+    ap.add_argument("--design", choices=("sortie", "eigenmotion"), default="sortie",
+                    help="sortie: 3211s, doublets and sums of sines over four test points; "
+                    "eigenmotion: a flight-test course (stationary series and eigenmotions)")
     ap.add_argument("--installation", action="store_true",
                     help="give the installation in the mapping file (vane positions and "
                     "calibrations, IMU position; not the lags), as bench_real_like does")
@@ -213,12 +235,14 @@ def main() -> None:
     warnings.simplefilter("ignore")
     t0 = time.perf_counter()
     sensors = SensorModel.real_like()
+    if args.design == "eigenmotion":
+        design = {"legs": course_legs(args.aircraft), "stationary_s": (60.0, 90.0),
+                  "protocol": FlightProtocol.eigenmotion()}
+    else:
+        design = {"protocol": FlightProtocol(mix={"3211": 2, "doublet": 1, "sum-of-sines": 1},
+                                             sos_duration_s=(30.0, 40.0))}
     flight = WholeFlight(args.aircraft, maneuvers=args.maneuvers, seed=args.seed,
-                         sensors=sensors,
-                         wind=Wind((5.0, 12.0), args.turbulence),
-                         protocol=FlightProtocol(mix={"3211": 2, "doublet": 1,
-                                                      "sum-of-sines": 1},
-                                                 sos_duration_s=(30.0, 40.0)))
+                         sensors=sensors, wind=Wind((5.0, 12.0), args.turbulence), **design)
     df = flight.run()
     t_sim = time.perf_counter() - t0
     segments = df.attrs["flight"]["segments"]
@@ -234,7 +258,8 @@ def main() -> None:
         flown = list(zip(spans["start"], spans["end"]))
         for variant in args.variants.split(","):
             results.append(run_variant(record, variant.strip(), flown, flight.legs, truth))
-    print(f"whole flight: {args.aircraft}, {len(flown)} maneuvers flown, seed {args.seed}, "
+    print(f"whole flight ({args.design}): {args.aircraft}, {len(flown)} maneuvers flown "
+          f"(stationary measurements included), seed {args.seed}, "
           f"{df.attrs['flight']['duration_s'] / 60:.1f} min airborne, legs "
           + ", ".join(f"{h:g} m/{v:g} m/s" for h, v in flight.legs)
           + f"; SensorModel.real_like() (installation "

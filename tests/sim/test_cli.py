@@ -43,6 +43,26 @@ def test_simulate_alternative_protocol_between_the_grid(tmp_path):
     assert df["maneuver_type"].astype(str).str.startswith("3211").all()
 
 
+def test_simulate_the_eigenmotion_protocol(tmp_path, capsys):
+    """A flight-test course's maneuvers: an elevator pulse with a phugoid's free response
+    (at least one period at the Cessna's median airspeed) and an aileron pulse."""
+    out = tmp_path / "c.parquet"
+    assert main(["simulate", "--aircraft", "c172p", "--maneuvers", "2", "--seed", "2",
+                 "--protocol", "eigenmotion", "--mix", "pulse=1", "--altitudes", "1000",
+                 "--airspeeds", "50", "--workers", "1", "-q", "-o", str(out)]) == 0
+    df, meta = read_flight_data(out)
+    assert meta["simulator"]["campaign"]["design"] == "eigenmotion"
+    kinds = df.groupby("maneuver")["maneuver_type"].first().astype(str)
+    assert sorted(kinds) == ["pulse-aileron", "pulse-elevator"]
+    phugoid = df[df["maneuver"] == kinds.index[kinds == "pulse-elevator"][0]]
+    assert phugoid["t"].iloc[-1] - phugoid["t"].iloc[0] > 20.0
+    capsys.readouterr()
+    assert main(["simulate", "--protocol", "eigenmotion", "--mix", "3211=1", "--maneuvers",
+                 "1", "-q", "-o", str(tmp_path / "x.parquet")]) == 2
+    assert "pulses and doublets only" in capsys.readouterr().err
+    assert not (tmp_path / "x.parquet").exists()
+
+
 def test_simulate_channels_format_writes_a_record_directory(tmp_path, capsys):
     out = tmp_path / "record"
     assert main(["simulate", "--aircraft", "c172p", "--maneuvers", "1", "--mix", "doublet=1",

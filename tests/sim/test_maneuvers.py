@@ -10,7 +10,11 @@ import pytest
 from simplexspline.errors import InputError
 from simplexspline.sim import MANEUVER_TYPES, get_aircraft
 from simplexspline.sim.maneuvers import (
+    EIGENMOTION_TAIL_S,
     LEAD_S,
+    PHUGOID_PERIODS,
+    PULSE_PATTERNS,
+    phugoid_period,
     design_maneuver,
     excitation,
     peak_factor,
@@ -24,6 +28,12 @@ def test_3211_pulse_train():
     s = pulse_shape(t, 0.5, (3, 2, 1, 1))
     expected = np.select([t < 1.5, t < 2.5, t < 3.0, t < 3.5], [1.0, -1.0, 1.0, -1.0], 0.0)
     assert np.array_equal(s, expected)
+
+
+def test_single_pulse():
+    t = np.arange(-1, 3, 0.01)
+    s = pulse_shape(t, 1.5, PULSE_PATTERNS["pulse"])
+    assert np.array_equal(s, np.select([t < 0, t < 1.5], [0.0, 1.0], 0.0))
 
 
 def test_doublet():
@@ -65,7 +75,8 @@ def test_designs_respect_the_profile(aircraft, rng):
             i = ("elevator", "aileron", "rudder").index(d["axis"])
             lo, hi = prof.pulse_accel[i]
             assert lo <= abs(d["accel"]) <= hi
-            n_units = 7 if kind.startswith("3211") else 2
+            n_units = sum(PULSE_PATTERNS[kind.split("-")[0]])
+            assert d["pattern"] == list(PULSE_PATTERNS[kind.split("-")[0]])
             assert d["duration_s"] == pytest.approx(LEAD_S + n_units * d["unit_s"] + 7.0)
 
 
@@ -122,3 +133,38 @@ def test_unknown_excitation_design():
     with pytest.raises(InputError, match="unknown excitation design 'mine'"):
         design_maneuver("3211-rudder", get_aircraft("f16"), np.random.default_rng(0),
                         design="mine")
+
+
+@pytest.mark.parametrize("aircraft", ["global5000", "c172p"])
+def test_eigenmotion_design_is_the_flight_test_courses(aircraft):
+    """Single pulses and doublets in the lower half of the profile's amplitudes, each with
+    its eigenmotion's free response: the phugoid's 1-1.5 periods at the profile's median
+    airspeed after an elevator pulse, the others' seconds from the table."""
+    prof = get_aircraft(aircraft)
+    period = phugoid_period(float(np.median(prof.airspeeds_mps)))
+    assert period == pytest.approx(math.pi * math.sqrt(2) * np.median(prof.airspeeds_mps)
+                                   / 9.80665)
+    for fam in ("pulse", "doublet"):
+        for axis in ("elevator", "aileron", "rudder"):
+            for i in range(10):
+                d = design_maneuver(f"{fam}-{axis}", prof, np.random.default_rng(i),
+                                    design="eigenmotion")
+                a_lo, a_hi = prof.pulse_accel[("elevator", "aileron", "rudder").index(axis)]
+                assert abs(d["accel"]) <= 0.5 * (a_lo + a_hi) + 1e-12
+                if (fam, axis) == ("pulse", "elevator"):
+                    lo, hi = (x * period for x in PHUGOID_PERIODS)
+                    assert abs(d["accel"]) <= 0.6 * a_lo
+                else:
+                    lo, hi = EIGENMOTION_TAIL_S[fam, axis]
+                assert lo <= d["tail_s"] <= hi
+                assert d["duration_s"] == pytest.approx(
+                    LEAD_S + sum(PULSE_PATTERNS[fam]) * d["unit_s"] + d["tail_s"])
+                if fam == "pulse":
+                    assert d["unit_s"] >= 2.0 * prof.pulse_unit_s[1]
+
+
+def test_eigenmotion_design_has_no_3211_or_sum_of_sines():
+    prof = get_aircraft("global5000")
+    for kind in ("3211-aileron", "sum-of-sines"):
+        with pytest.raises(InputError, match="pulses and doublets only"):
+            design_maneuver(kind, prof, np.random.default_rng(0), design="eigenmotion")

@@ -11,7 +11,7 @@ import pytest
 from simplexspline.errors import InputError
 from simplexspline.sim import FlightProtocol, SensorModel, write_channel_record
 from simplexspline.sim.record_export import _position
-from simplexspline.sim.whole_flight import FLIGHT_TYPE, WholeFlight
+from simplexspline.sim.whole_flight import FLIGHT_TYPE, STATIONARY_TYPE, WholeFlight
 
 from .test_campaign import _eq43_48
 
@@ -97,7 +97,43 @@ def test_gps_positions_far_from_the_start_keep_the_ground_speed():
     ({"maneuvers": 0}, "maneuvers must be a positive integer"),
     ({"steady_s": (5.0, 1.0)}, "steady_s must be"),
     ({"turn_probability": 2.0}, "turn_probability must be in"),
+    ({"stationary_s": (0.0, 10.0)}, "stationary_s must be"),
 ])
 def test_bad_flights_are_refused(kwargs, match):
     with pytest.raises(InputError, match=match):
         WholeFlight("global5000", **kwargs)
+
+
+def test_the_eigenmotion_design_refuses_3211s_in_its_mix():
+    with pytest.raises(InputError, match="pulses and doublets only; the mix gives"):
+        FlightProtocol(mix={"3211": 1, "pulse": 1}, design="eigenmotion")
+
+
+def test_a_flight_test_course_logs_its_stationary_measurements_and_eigenmotions(tmp_path):
+    """The course's design: each leg opens with a stationary measurement (trimmed straight
+    flight, logged and listed as a maneuver), and the maneuvers are single pulses and
+    doublets with their free responses; the elevator pulse changes the airspeed (a
+    phugoid), the stationary measurement does not."""
+    flight = WholeFlight("global5000", legs=LEGS, maneuvers=2, seed=3, steady_s=(5.0, 5.0),
+                         stationary_s=(20.0, 25.0), turn_probability=0.0,
+                         sensors=SensorModel.ideal(),
+                         protocol=FlightProtocol.eigenmotion(mix={"pulse": 1}))
+    df = flight.run()
+    segs = df.attrs["flight"]["segments"]
+    kinds = [s["type"] for s in segs]
+    assert kinds.count(STATIONARY_TYPE) == 2 and df.attrs["flight"]["stationary_s"] == [20, 25]
+    assert kinds.index(STATIONARY_TYPE) == 0                      # the first leg's
+    assert kinds[kinds.index("transition") + 2] == STATIONARY_TYPE  # after settling
+    flown = [s for s in segs if s["type"] not in ("steady", "turn", "transition")]
+    assert {s["type"] for s in flown} == {STATIONARY_TYPE, "pulse-elevator", "pulse-aileron"}
+    for seg in flown:
+        g = _phase(df, seg)
+        spread = np.ptp(g["true_tas"].to_numpy())
+        if seg["type"] == STATIONARY_TYPE:
+            assert 20.0 <= seg["end_s"] - seg["start_s"] <= 25.01
+            assert spread < 1.0 and np.ptp(g["de"].to_numpy()) < math.radians(0.5)
+        elif seg["type"] == "pulse-elevator":
+            assert seg["end_s"] - seg["start_s"] > 40.0              # a phugoid period
+            assert spread > 3.0
+    spans = pd.read_csv(write_channel_record(df, tmp_path / "rec") / "maneuvers.csv")
+    assert list(spans["type"]) == [s["type"] for s in flown]

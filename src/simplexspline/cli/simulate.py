@@ -61,14 +61,18 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--conditions", choices=("grid", "between"), default="grid",
                    help="'between': the midpoints of the aircraft's default grid, conditions "
                         "the project was not developed on (grid); --altitudes/--airspeeds win")
-    p.add_argument("--protocol", choices=("paper", "alternative"), default="paper",
+    p.add_argument("--protocol", choices=("paper", "alternative", "eigenmotion"),
+                   default="paper",
                    help="'alternative': 3211s and sum-of-sines of another excitation design "
                         "(other pulse units and band, low-peak-factor multisines) flown by a "
-                        "relaxed pilot (paper)")
+                        "relaxed pilot; 'eigenmotion': a flight-test course's single pulses "
+                        "and doublets with long free responses (phugoid, short period, "
+                        "aperiodic roll, Dutch roll) (paper)")
     p.add_argument("--mix", type=_mix, default=None, metavar="FAMILY=W,...",
-                   help="relative frequency of 3211, doublet and sum-of-sines maneuvers "
-                        "(3211=0.45,doublet=0.2,sum-of-sines=0.35; alternative protocol: "
-                        "3211=0.5,sum-of-sines=0.5)")
+                   help="relative frequency of 3211, doublet, pulse and sum-of-sines "
+                        "maneuvers (3211=0.45,doublet=0.2,sum-of-sines=0.35; alternative "
+                        "protocol: 3211=0.5,sum-of-sines=0.5; eigenmotion: pulse=0.5,"
+                        "doublet=0.5)")
     p.add_argument("--turn-fraction", type=arguments.share, default=0.5,
                    help="fraction of sum-of-sines maneuvers flown in a level turn instead of "
                         "straight and level (0.5)")
@@ -131,8 +135,8 @@ def run(args: argparse.Namespace) -> int:
     protocol = {"turn_fraction": args.turn_fraction}
     if args.mix is not None:
         protocol["mix"] = args.mix
-    protocol = (FlightProtocol.alternative(**protocol) if args.protocol == "alternative"
-                else FlightProtocol(**protocol))
+    protocol = {"paper": FlightProtocol, "alternative": FlightProtocol.alternative,
+                "eigenmotion": FlightProtocol.eigenmotion}[args.protocol](**protocol)
     campaign = Campaign(args.aircraft, maneuvers=args.maneuvers,
                         maneuvers_per_condition=args.per_condition, seed=args.seed,
                         grid=grid, protocol=protocol, sensors=sensors, wind=wind)

@@ -150,10 +150,12 @@ class FlightProtocol:
         place).
     min_kept_s : float
         A maneuver cut at the envelope earlier than this is dropped entirely [s].
-    design : {'paper', 'alternative'}
+    design : {'paper', 'alternative', 'eigenmotion'}
         Excitation design (:data:`~simplexspline.sim.maneuvers.EXCITATION_DESIGNS`): the
-        paper's, which the project was developed on, or a different one (other pulse units,
-        frequency band and low-peak-factor multisines) to test generalisation.
+        paper's, which the project was developed on, a different one (other pulse units,
+        frequency band and low-peak-factor multisines) to test generalisation, or the
+        flight-test course's pulses and doublets with long free responses
+        (:meth:`eigenmotion`).
     pilot : PilotStyle, optional
         How the pilot model flies (default ``PilotStyle(delay_s=pilot_delay_s)``).
 
@@ -185,6 +187,15 @@ class FlightProtocol:
             settings["pilot"] = replace(settings["pilot"], delay_s=changes["pilot_delay_s"])
         return cls(**settings)
 
+    @classmethod
+    def eigenmotion(cls, **changes) -> FlightProtocol:
+        """The flight-test course's maneuvers: single pulses and doublets on each axis at
+        small amplitudes, each followed by a long free response (phugoid, short period,
+        aperiodic roll, Dutch roll), as a training flight records them; ``changes``
+        override any field."""
+        return cls(**{"mix": {"pulse": 0.5, "doublet": 0.5}, "design": "eigenmotion",
+                      **changes})
+
     def __post_init__(self):
         mix = dict(DEFAULT_MIX if self.mix is None else self.mix)
         for fam, w in mix.items():
@@ -213,6 +224,11 @@ class FlightProtocol:
         if self.design not in EXCITATION_DESIGNS:
             raise InputError(f"unknown excitation design {self.design!r}: choose one of "
                              f"{list(EXCITATION_DESIGNS)}")
+        other = [f for f, w in mix.items() if w > 0 and f not in ("pulse", "doublet")]
+        if self.design == "eigenmotion" and other:
+            raise InputError(f"the eigenmotion design flies pulses and doublets only; the mix "
+                             f"gives {other}: use FlightProtocol.eigenmotion() or a mix of "
+                             "'pulse' and 'doublet'")
         if self.pilot is None:
             object.__setattr__(self, "pilot", PilotStyle(delay_s=float(self.pilot_delay_s)))
         elif not isinstance(self.pilot, PilotStyle):

@@ -1,8 +1,12 @@
-"""Maneuver input signals: 3211 pulse trains, doublets and multi-axis sums of sines.
+"""Maneuver input signals: 3211 pulse trains, doublets, single pulses and multi-axis sums
+of sines.
 
-The designs follow Section IV of de Visser, Mulder and Chu (AIAA 2010-7950): short,
+The paper's design follows Section IV of de Visser, Mulder and Chu (AIAA 2010-7950): short,
 large-amplitude automatic 3211 pulse sets on one surface, and ~100 s semi-random
 sum-of-sines disturbance signals on all three axes while a pilot holds straight and level.
+The 'eigenmotion' design is the textbook flight-test course's instead: single pulses and
+doublets at small amplitudes, each followed by a long free response (phugoid, short
+period, aperiodic roll, Dutch roll), the maneuvers of a real training-flight record.
 
 A design is plain data (a dict of numbers and lists). Amplitudes are angular accelerations
 [rad/s^2]: :func:`excitation` turns them into surface deflections with the aircraft's
@@ -24,7 +28,9 @@ __all__ = [
     "MANEUVER_FAMILIES",
     "MANEUVER_TYPES",
     "EXCITATION_DESIGNS",
+    "PULSE_PATTERNS",
     "design_maneuver",
+    "phugoid_period",
     "excitation",
     "pulse_shape",
     "multisine",
@@ -33,9 +39,11 @@ __all__ = [
 #: Control axes in the order (elevator, aileron, rudder).
 AXES = ("elevator", "aileron", "rudder")
 #: Families a campaign mixes; the pulse families are flown on one axis at a time.
-MANEUVER_FAMILIES = ("3211", "doublet", "sum-of-sines")
+MANEUVER_FAMILIES = ("3211", "doublet", "pulse", "sum-of-sines")
+#: Pulse families and their patterns (pulse lengths in units, alternating sign).
+PULSE_PATTERNS = {"3211": (3, 2, 1, 1), "doublet": (1, 1), "pulse": (1,)}
 #: Every ``maneuver_type`` value the simulator writes.
-MANEUVER_TYPES = tuple(f"{fam}-{ax}" for fam in ("3211", "doublet") for ax in AXES) + (
+MANEUVER_TYPES = tuple(f"{fam}-{ax}" for fam in PULSE_PATTERNS for ax in AXES) + (
     "sum-of-sines",
 )
 
@@ -46,7 +54,20 @@ EXCITATION_DESIGNS = {
     "alternative": "3211 pulse units from the upper half of the profile's range to 1.6x its "
                    "top, doublets at 0.7-1.2x; 10 sines per axis evenly spread over a band "
                    "shifted to 1.5x-0.7x the profile's, phases chosen for a low peak factor",
+    "eigenmotion": "the flight-test course's: single pulses and doublets in the lower half "
+                   "of the profile's amplitudes, each followed by a long free response (an "
+                   "elevator pulse then 1-1.5 phugoid periods, an aileron pulse then 10-25 s "
+                   "of aperiodic roll and spiral, a rudder doublet then 15-25 s of Dutch "
+                   "roll, an elevator doublet then 6-10 s of short period); no 3211s, no "
+                   "sums of sines",
 }
+#: Free response after each pulse family and axis in the eigenmotion design [s]; the
+#: elevator pulse's (the phugoid) is given in phugoid periods instead.
+EIGENMOTION_TAIL_S = {("pulse", "aileron"): (10.0, 25.0), ("pulse", "rudder"): (12.0, 20.0),
+                      ("doublet", "elevator"): (6.0, 10.0),
+                      ("doublet", "aileron"): (8.0, 12.0),
+                      ("doublet", "rudder"): (15.0, 25.0)}
+PHUGOID_PERIODS = (1.0, 1.5)  #: free response after the phugoid's elevator pulse
 ALT_SOS_COMPONENTS = 10  #: sinusoids per axis in the alternative design
 ALT_PHASE_TRIALS = 32  #: random phase sets tried per axis for a low peak factor
 
@@ -176,16 +197,53 @@ def _alternative_design(kind: str, profile: AircraftProfile, rng: np.random.Gene
     family, axis = kind.split("-", 1)
     iaxis = AXES.index(axis)
     lo, hi = profile.pulse_unit_s
-    lo, hi = (0.7 * lo, 1.2 * hi) if family == "doublet" else (0.5 * (lo + hi), 1.6 * hi)
+    lo, hi = (0.7 * lo, 1.2 * hi) if family != "3211" else (0.5 * (lo + hi), 1.6 * hi)
     unit = float(rng.uniform(lo, hi))
     a_lo, a_hi = profile.pulse_accel[iaxis]
     # longer pulses build up larger responses: amplitudes from the lower part of the range
     amp = float(rng.uniform(0.6 * a_lo, 0.5 * (a_lo + a_hi))) * (1.0 if rng.random() < 0.5
                                                                  else -1.0)
-    pattern = [3, 2, 1, 1] if family == "3211" else [1, 1]
+    pattern = list(PULSE_PATTERNS[family])
     return {"type": kind, "family": family, "axis": axis,
             "duration_s": LEAD_S + sum(pattern) * unit + TAIL_S,
             "unit_s": unit, "pattern": pattern, "accel": amp}
+
+
+def phugoid_period(tas_mps: float) -> float:
+    """Lanchester's phugoid period ``pi sqrt(2) V / g`` [s] at true airspeed ``tas_mps``."""
+    return math.pi * math.sqrt(2.0) * float(tas_mps) / 9.80665
+
+
+def _eigenmotion_design(kind: str, profile: AircraftProfile, rng: np.random.Generator) -> dict:
+    """A flight-test course maneuver: a pulse or doublet at the low end of the profile's
+    amplitudes and a long free response (:data:`EXCITATION_DESIGNS` 'eigenmotion')."""
+    family, _, axis = kind.partition("-")
+    if family not in ("pulse", "doublet"):
+        raise InputError(f"the eigenmotion design flies pulses and doublets only, not "
+                         f"{kind!r}: give a mix of 'pulse' and 'doublet'")
+    iaxis = AXES.index(axis)
+    lo, hi = profile.pulse_unit_s
+    a_lo, a_hi = profile.pulse_accel[iaxis]
+    if family == "pulse":
+        # a pulse two to four times the longest unit moves the speed (elevator: at a
+        # third to two thirds of the lowest amplitude) or banks or yaws the aircraft,
+        # and lets it go
+        unit = float(rng.uniform(2.0 * hi, 4.0 * hi))
+        amp = float(rng.uniform(0.3 * a_lo, 0.6 * a_lo) if axis == "elevator"
+                    else rng.uniform(a_lo, 0.5 * (a_lo + a_hi)))
+    else:
+        unit = float(rng.uniform(1.5 * lo, 2.0 * hi))
+        amp = float(rng.uniform(a_lo, 0.5 * (a_lo + a_hi)))
+    if (family, axis) == ("pulse", "elevator"):
+        period = phugoid_period(float(np.median(profile.airspeeds_mps)))
+        tail = float(rng.uniform(*PHUGOID_PERIODS)) * period
+    else:
+        tail = float(rng.uniform(*EIGENMOTION_TAIL_S[family, axis]))
+    pattern = list(PULSE_PATTERNS[family])
+    return {"type": kind, "family": family, "axis": axis,
+            "duration_s": LEAD_S + sum(pattern) * unit + tail, "tail_s": tail,
+            "unit_s": unit, "pattern": pattern,
+            "accel": amp * (1.0 if rng.random() < 0.5 else -1.0)}
 
 
 def design_maneuver(kind: str, profile: AircraftProfile, rng: np.random.Generator,
@@ -222,6 +280,8 @@ def design_maneuver(kind: str, profile: AircraftProfile, rng: np.random.Generato
                          f"{list(EXCITATION_DESIGNS)}")
     if design == "alternative":
         return _alternative_design(kind, profile, rng, sos_duration_s, turn_fraction)
+    if design == "eigenmotion":
+        return _eigenmotion_design(kind, profile, rng)
     if kind == "sum-of-sines":
         length = float(rng.uniform(*sos_duration_s))
         freqs = _sos_frequencies(rng, profile.sos_band_hz, length)
@@ -234,11 +294,11 @@ def design_maneuver(kind: str, profile: AircraftProfile, rng: np.random.Generato
     family, axis = kind.split("-", 1)
     iaxis = AXES.index(axis)
     lo, hi = profile.pulse_unit_s
-    if family == "doublet":
+    if family != "3211":
         lo, hi = 1.5 * lo, 2.0 * hi
     unit = float(rng.uniform(lo, hi))
     amp = float(rng.uniform(*profile.pulse_accel[iaxis])) * (1.0 if rng.random() < 0.5 else -1.0)
-    pattern = [3, 2, 1, 1] if family == "3211" else [1, 1]
+    pattern = list(PULSE_PATTERNS[family])
     return {"type": kind, "family": family, "axis": axis,
             "duration_s": LEAD_S + sum(pattern) * unit + TAIL_S,
             "unit_s": unit, "pattern": pattern, "accel": amp}

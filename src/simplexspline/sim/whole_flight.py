@@ -34,10 +34,12 @@ from simplexspline.sim.pilot import Pilot, Turn
 from simplexspline.sim.sensors import SensorModel
 from simplexspline.sim.wind import Wind
 
-__all__ = ["WholeFlight", "FLIGHT_TYPE"]
+__all__ = ["WholeFlight", "FLIGHT_TYPE", "STATIONARY_TYPE"]
 
 #: The ``maneuver_type`` of a whole flight's single maneuver.
 FLIGHT_TYPE = "whole-flight"
+#: The segment type of a stationary measurement (:class:`WholeFlight` ``stationary_s``).
+STATIONARY_TYPE = "stationary"
 _SETTLE_S = 30.0  #: steady flight after a climb or speed change before the next maneuver [s]
 _CATCH_UP_S = 600.0  #: longest time the pilot may lag behind a climb or speed change [s]
 
@@ -54,7 +56,7 @@ def _default_legs(profile: AircraftProfile) -> list:
 
 @dataclass(frozen=True)
 class _Phase:
-    kind: str            # 'steady', 'settle', 'turn', 'transition', 'maneuver'
+    kind: str            # 'steady', 'settle', 'stationary', 'turn', 'transition', 'maneuver'
     duration_s: float
     leg: int
     design: dict | None = None
@@ -96,6 +98,11 @@ class WholeFlight:
     envelope : Envelope, optional
         Limits: samples outside are kept (a flight cannot be cut) but each maneuver's log
         names its first excursion.
+    stationary_s : (float, float), optional
+        With it, every leg begins (once the aircraft has settled there) with a stationary
+        measurement of this range of durations [s]: trimmed straight flight logged as a
+        maneuver of type :data:`STATIONARY_TYPE`, as a flight-test course logs its lift-drag
+        and elevator-trim series. Default none.
 
     Examples
     --------
@@ -112,7 +119,7 @@ class WholeFlight:
                  sensors: SensorModel | None = None, wind: Wind | None = None,
                  steady_s: tuple = (20.0, 45.0), turn_probability: float = 0.3,
                  climb_rate_mps: float = 5.0, accel_mps2: float = 0.4,
-                 fuel_fraction: float = 0.9, envelope=None):
+                 fuel_fraction: float = 0.9, envelope=None, stationary_s=None):
         self.profile = get_aircraft(aircraft)
         self.legs = [tuple(float(x) for x in leg) for leg in
                      (_default_legs(self.profile) if legs is None else legs)]
@@ -127,6 +134,8 @@ class WholeFlight:
         self.accel_mps2 = float(accel_mps2)
         self.fuel_fraction = float(fuel_fraction)
         self.envelope = self.profile.envelope if envelope is None else envelope
+        self.stationary_s = None if stationary_s is None else tuple(float(x)
+                                                                    for x in stationary_s)
         self._check()
 
     def _check(self) -> None:
@@ -148,6 +157,10 @@ class WholeFlight:
         if not (0 < lo <= hi):
             raise InputError(f"steady_s must be (low, high) with 0 < low <= high, got "
                              f"{self.steady_s!r}")
+        if self.stationary_s is not None and not (
+                len(self.stationary_s) == 2 and 0 < self.stationary_s[0] <= self.stationary_s[1]):
+            raise InputError(f"stationary_s must be (low, high) with 0 < low <= high, got "
+                             f"{self.stationary_s!r}")
         if not 0 <= self.turn_probability <= 1:
             raise InputError("turn_probability must be in [0, 1]")
         if not (self.climb_rate_mps > 0 and self.accel_mps2 > 0):
@@ -179,6 +192,8 @@ class WholeFlight:
             if leg:
                 phases.append(_Phase("transition", 0.0, leg, target=self.legs[leg]))
                 phases.append(_Phase("settle", _SETTLE_S, leg))
+            if self.stationary_s is not None:
+                phases.append(_Phase("stationary", float(rng.uniform(*self.stationary_s)), leg))
             for _ in range(count):
                 design_rng = np.random.default_rng(
                     np.random.SeedSequence(int(self.seed), spawn_key=(1, i)).spawn(2)[0])
@@ -262,11 +277,11 @@ class WholeFlight:
                               protection=loop.protection(s), dt=DT)
                 reason = fly(pilot, exc.tolist(), n)
                 kind = design["type"]
-            elif ph.kind in ("steady", "settle"):
+            elif ph.kind in ("steady", "settle", "stationary"):
                 cruise.hold(psi=s[12], resume=True)
                 n = int(round(ph.duration_s / DT))
                 reason = fly(cruise, zeros * n, n)
-                kind = "steady"
+                kind = STATIONARY_TYPE if ph.kind == "stationary" else "steady"
                 if ph.kind == "settle":
                     # at a new test point the pilot trims afresh (new integrators and
                     # envelope protection around the new trim)
@@ -335,7 +350,9 @@ class WholeFlight:
                 "turn_fraction": p.turn_fraction, "design": p.design,
                 "steady_s": list(self.steady_s), "turn_probability": self.turn_probability,
                 "climb_rate_mps": self.climb_rate_mps, "accel_mps2": self.accel_mps2,
-                "fuel_fraction": self.fuel_fraction, "segments": segments,
+                "fuel_fraction": self.fuel_fraction, "stationary_s": (
+                    None if self.stationary_s is None else list(self.stationary_s)),
+                "segments": segments,
                 "duration_s": round(len(df) * DT, 2),
             },
         }
