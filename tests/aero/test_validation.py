@@ -66,9 +66,52 @@ def test_split_holds_out_whole_maneuvers(n, frac, seed):
 def test_split_draws_within_each_maneuver_type():
     man = np.repeat(np.arange(40), 5)
     kind = np.where(man % 4 == 0, "sos", "3211")
-    val = split_by_maneuver(man, 0.25, groups=kind)
-    assert set(kind[val]) == {"sos", "3211"}
-    assert len(set(man[val & (kind == "sos")])) == round(0.25 * 10)
+    for seed in range(6):
+        val = split_by_maneuver(man, 0.25, groups=kind, seed=seed)
+        assert set(kind[val]) == {"sos", "3211"}
+        assert len(set(man[val])) == 10                          # a quarter of 40
+        assert len(set(man[val & (kind == "sos")])) in (2, 3)     # 2.5 of the 10
+
+
+@pytest.mark.parametrize("sizes", [[2] * 6, [3, 2, 2, 1, 1, 1, 1, 1], [6, 2, 2, 2, 2, 2, 2]])
+def test_the_split_holds_its_fraction_out_of_many_small_kinds(sizes):
+    """A record of a few maneuvers of many kinds (a flight-test course: stationary
+    measurements, two phugoids, two short periods ...) gets a quarter of its maneuvers for
+    validation, not the one that rounding each kind on its own (round(0.25 * 2) == 0) left:
+    R^2 on one 7-second segment measured nothing. Every kind keeps a maneuver for
+    identification, and the only maneuver of a kind is not drawn."""
+    kind = np.repeat(np.arange(len(sizes)), sizes)
+    man = np.repeat(np.arange(len(kind)), 10)
+    kinds = kind[man]
+    for seed in range(8):
+        val = split_by_maneuver(man, 0.25, groups=kinds, seed=seed)
+        held = np.unique(man[val])
+        assert held.size == round(0.25 * len(kind))
+        per_kind = np.bincount(kind[held], minlength=len(sizes))
+        assert np.all(per_kind < np.asarray(sizes))         # one of each kind identifies
+        assert np.all(per_kind[np.asarray(sizes) == 1] == 0)
+
+
+def test_kinds_of_one_maneuver_each_are_not_drawn():
+    """Twelve kinds of one maneuver each: the draw takes none of them (each would leave
+    identification without its kind); one maneuver is held out, as the rules allow."""
+    man = np.repeat(np.arange(12), 10)
+    for seed in range(4):
+        val = split_by_maneuver(man, 0.25, groups=man, seed=seed)
+        assert np.unique(man[val]).size == 1
+
+
+def test_what_a_rule_refuses_in_one_kind_is_taken_from_the_others():
+    """The mass range keeps the first and last maneuvers (the fuel extremes) in
+    identification; with two kinds of four, the kind holding both ends still gets its
+    share elsewhere, and the total stays a quarter."""
+    man = np.repeat(np.arange(8), 10)
+    kind = np.repeat(np.array([0, 1, 1, 1, 1, 0, 0, 0]), 10)
+    mass = np.repeat(np.linspace(900.0, 800.0, 8), 10)[:, None]
+    for seed in range(8):
+        val = split_by_maneuver(man, 0.25, groups=kind, seed=seed, ranges=mass)
+        held = set(man[val])
+        assert len(held) == 2 and not held & {0, 7}
 
 
 def _condition_campaign(seed=0):
