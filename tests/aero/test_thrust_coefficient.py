@@ -137,6 +137,22 @@ def test_the_size_budget_counts_the_time_flown_not_the_samples():
     assert np.sqrt(np.mean((model.predict(data) - d["truth"]) ** 2)) < 1.5e-3
 
 
+def test_the_size_budget_counts_the_samples_the_search_cross_validates_on():
+    """The same 3600 samples at 5 samples per coefficient allow 720 coefficients, so the
+    search tries structures larger than CX's 180-coefficient start; subsampled to 900 for
+    the cross-validation (``max_samples``), they allow 180, and no larger structure is
+    tried (the main job's Cn had tried 8,820 coefficients on 40,000 training samples)."""
+    data, d = _thrust_in_cx(180, 0.1, seed=3)
+    start, _ = restrict_to_data(AUTO_PRESET["CX"], data)
+    largest = {}
+    for max_samples in (20_000, 900):
+        settings = SelectionSettings(max_rounds=2, max_samples=max_samples,
+                                     samples_per_coefficient=5)
+        _, history = select_structure(start, data, d["y"], d["man"], settings)
+        largest[max_samples] = max(t.structure.size() for t in history)
+    assert largest[20_000] > start.size() >= largest[900]
+
+
 def test_search_finds_a_power_effect_on_the_elevator():
     """Cm's elevator term scales with the slipstream, (1 + 3 tc): the default search, offered
     tc, takes it into the model and reaches the noise; without tc it cannot."""
