@@ -544,3 +544,24 @@ def test_a_sum_of_sources_is_refused_where_it_makes_no_sense(tmp_path, entry, me
     (tmp_path / "mapping.toml").write_text(text.replace(old, entry))
     with pytest.raises(MappingError, match=message):
         read_mapping(tmp_path / "mapping.toml")
+
+
+def test_a_structure_may_use_the_sideslip_the_reconstruction_estimates(imported):
+    """The record has no sideslip vane: identify reconstructs beta from the lateral
+    kinematics, so a structure the user gives with beta in it is accepted before the
+    reconstruction (it was refused: "unknown variable(s) ['beta']") and fitted on it; a
+    variable nothing makes is still refused by name."""
+    from simplexspline.aero import identify, parse_structure
+    from simplexspline.aero.identify import IdentificationSettings
+    from simplexspline.errors import InputError
+
+    assert "beta" not in imported.data.columns
+    s = parse_structure("Cn(alpha | 1, beta, rhat, dr) S^0_1")
+    result = identify(imported.data, settings=IdentificationSettings(
+        coefficients=("Cn",), structures={"Cn": s}, select=False))
+    assert "beta" in result.results["Cn"].model.variables
+    assert np.isfinite(result.identification["beta"]).all()
+    with pytest.raises(InputError, match=r"unknown variable\(s\) \['gamma'\]"):
+        identify(imported.data, settings=IdentificationSettings(
+            coefficients=("Cn",), select=False,
+            structures={"Cn": parse_structure("Cn(alpha | 1, gamma) S^0_1")}))

@@ -78,7 +78,10 @@ __all__ = [
 ]
 
 #: Columns that identify data as already reconstructed (coefficients present).
-_RECONSTRUCTED = ("CX", "CY", "CZ", "Cl", "Cm", "Cn", "phat", "qhat", "rhat")
+#: Columns the reconstruction writes: a structure may use them before they exist (the
+#: sideslip of a record without a vane); the check after the reconstruction has the last word.
+_RECONSTRUCTED = ("CX", "CY", "CZ", "Cl", "Cm", "Cn", "phat", "qhat", "rhat", "alpha", "beta",
+                  "tas")
 
 
 class ThinDataWarning(UserWarning):
