@@ -78,10 +78,11 @@ __all__ = [
 ]
 
 #: Columns that identify data as already reconstructed (coefficients present).
-#: Columns the reconstruction writes: a structure may use them before they exist (the
-#: sideslip of a record without a vane); the check after the reconstruction has the last word.
-_RECONSTRUCTED = ("CX", "CY", "CZ", "Cl", "Cm", "Cn", "phat", "qhat", "rhat", "alpha", "beta",
-                  "tas")
+_RECONSTRUCTED = ("CX", "CY", "CZ", "Cl", "Cm", "Cn", "phat", "qhat", "rhat")
+#: Air data the reconstruction writes besides: a structure may name them before they exist
+#: (the sideslip of a record without a vane); the check after the reconstruction has the
+#: last word.
+_RECONSTRUCTED_AIR_DATA = ("alpha", "beta", "tas")
 
 
 class ThinDataWarning(UserWarning):
@@ -528,7 +529,8 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
     # Fail before the (long) reconstruction when a structure the user gave names an
     # unknown column; a preset's structures are restricted to the data instead.
     given = dict(settings.structures or {})
-    _check_columns(df, given, (), extra=(*_RECONSTRUCTED, *ANGLE_RATE_NAMES,
+    _check_columns(df, given, (), extra=(*_RECONSTRUCTED, *_RECONSTRUCTED_AIR_DATA,
+                                         *ANGLE_RATE_NAMES,
                                          THRUST_COEFFICIENT, FUEL_FLOW_THRUST_COEFFICIENT,
                                          FAN_SPEED_THRUST_COEFFICIENT))
     data, rec_note = _coefficient_data(df, meta, settings, progress, log)
