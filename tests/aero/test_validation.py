@@ -77,9 +77,9 @@ def test_split_draws_within_each_maneuver_type():
 def test_the_split_holds_its_fraction_out_of_many_small_kinds(sizes):
     """A record of a few maneuvers of many kinds (a flight-test course: stationary
     measurements, two phugoids, two short periods ...) gets a quarter of its maneuvers for
-    validation, not the one that rounding each kind on its own (round(0.25 * 2) == 0) left:
-    R^2 on one 7-second segment measured nothing. Every kind keeps a maneuver for
-    identification, and the only maneuver of a kind is not drawn."""
+    validation, not the one that rounding each kind on its own (round(0.25 * 2) == 0) left.
+    Every kind keeps a maneuver for identification, and the only maneuver of a kind is not
+    drawn."""
     kind = np.repeat(np.arange(len(sizes)), sizes)
     man = np.repeat(np.arange(len(kind)), 10)
     kinds = kind[man]

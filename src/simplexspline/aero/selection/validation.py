@@ -51,8 +51,8 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         (largest remainders); where the rules below refuse a group's, other maneuvers
         are taken instead. The draw never holds out the only maneuver of a group, nor
         the last one left for identification of a group of several: every kind of
-        maneuver is identified on (held out of a course's two aileron pulses, both
-        left the lateral models without them, and Cn's validation R^2 was -16).
+        maneuver is identified on (when both of a course's two aileron pulses were held
+        out, the lateral models had none, and Cn's validation R^2 was -16).
     seed : int
     groups : ndarray, shape (N,), optional
         A label per sample (e.g. the maneuver type); maneuvers are drawn in proportion
@@ -187,8 +187,9 @@ def _quotas(labels: np.ndarray, fraction: float, rng: np.random.Generator) -> np
     """Maneuvers to hold out per group (``labels``: group index per maneuver): the
     largest-remainder apportionment of ``round(fraction * n)`` (at least one) in proportion
     to the groups' sizes, equal remainders in random order. Rounding each group on its own
-    held out none of a group of two (``round(0.5) == 0``), and a 12-maneuver record of six
-    kinds validated on one 7-second maneuver."""
+    held out none of a group of two (``round(0.5) == 0``): six kinds of two maneuvers held
+    out one of the twelve (the fallback's), and 40-maneuver campaigns drew 11-12
+    instead of 10."""
     sizes = np.bincount(labels)
     total = max(1, round(fraction * len(labels)))
     share = sizes * total / len(labels)
