@@ -4,11 +4,14 @@ counted once, and an estimate that disagrees with the others left out and named.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import given, settings as hsettings, strategies as st
 
+from simplexspline.aero import import_record
 from simplexspline.aero.reconstruction.campaign_calibration import (
     FALSE_ALARM,
     OBSERVED,
@@ -19,6 +22,11 @@ from simplexspline.aero.reconstruction.campaign_calibration import (
     outlier_threshold,
     prior_conflicts,
     spread_between,
+)
+from simplexspline.aero.reconstruction.reconstruct import (
+    HELD_STRAIGHT,
+    ReconstructionSettings,
+    reconstruct,
 )
 
 SD0 = 2.0
@@ -245,17 +253,6 @@ def test_an_airspeed_bias_the_campaign_cannot_determine_is_held_in_straight_stil
     and the wind along the track are one), so the bias is held at zero and said so. Each
     maneuver's own estimate put the airspeed 0.09 m/s RMS off (on a simulated course,
     1.16 m/s against the sensor's 0.10)."""
-    from pathlib import Path
-
-    import pandas as pd
-
-    from simplexspline.aero import import_record
-    from simplexspline.aero.reconstruction.reconstruct import (
-        HELD_STRAIGHT,
-        ReconstructionSettings,
-        reconstruct,
-    )
-
     record = Path(__file__).resolve().parents[1] / "data" / "citation_like"
     data = import_record(record / "mapping.toml").data
     truth = pd.read_csv(record / "truth.csv")

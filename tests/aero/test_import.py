@@ -18,10 +18,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from simplexspline.aero import identify, parse_structure
 from simplexspline.aero.data.flight_data import read_flight_data
 from simplexspline.aero.data.record_import import import_record
 from simplexspline.aero.data.sanity import check_record
+from simplexspline.aero.identify import IdentificationSettings
 from simplexspline.cli import main
+from simplexspline.errors import InputError
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "citation_like"
 MAPPING = DATA / "mapping.toml"
@@ -551,10 +554,6 @@ def test_a_structure_may_use_the_sideslip_the_reconstruction_estimates(imported)
     kinematics, so a structure the user gives with beta in it is accepted before the
     reconstruction (it was refused: "unknown variable(s) ['beta']") and fitted on it; a
     variable nothing makes is still refused by name."""
-    from simplexspline.aero import identify, parse_structure
-    from simplexspline.aero.identify import IdentificationSettings
-    from simplexspline.errors import InputError
-
     assert "beta" not in imported.data.columns
     s = parse_structure("Cn(alpha | 1, beta, rhat, dr) S^0_1")
     result = identify(imported.data, settings=IdentificationSettings(

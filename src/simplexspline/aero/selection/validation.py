@@ -155,7 +155,7 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         chosen.append(ids[i])
         return True
 
-    quota = _quotas(labels, fraction, rng)
+    quota = _quotas(sizes, fraction, rng)
     for g in np.unique(labels):
         members = np.flatnonzero(labels == g)
         taken = 0
@@ -183,16 +183,16 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     return np.isin(maneuvers, list(chosen))
 
 
-def _quotas(labels: np.ndarray, fraction: float, rng: np.random.Generator) -> np.ndarray:
-    """Maneuvers to hold out per group (``labels``: group index per maneuver): the
+def _quotas(sizes: np.ndarray, fraction: float, rng: np.random.Generator) -> np.ndarray:
+    """Maneuvers to hold out per group (``sizes``: maneuvers per group): the
     largest-remainder apportionment of ``round(fraction * n)`` (at least one) in proportion
     to the groups' sizes, equal remainders in random order. Rounding each group on its own
     held out none of a group of two (``round(0.5) == 0``): six kinds of two maneuvers held
     out one of the twelve (the fallback's), and 40-maneuver campaigns drew 11-12
     instead of 10."""
-    sizes = np.bincount(labels)
-    total = max(1, round(fraction * len(labels)))
-    share = sizes * total / len(labels)
+    n = int(sizes.sum())
+    total = max(1, round(fraction * n))
+    share = sizes * total / n
     quota = np.floor(share).astype(int)
     order = np.lexsort((rng.random(len(sizes)), -(share - quota)))
     quota[order[:total - int(quota.sum())]] += 1
