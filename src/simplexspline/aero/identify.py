@@ -50,6 +50,7 @@ from simplexspline.aero.selection.diagnostics import collinearity, excitation
 from simplexspline.aero.variables import (
     COEFFICIENTS,
     ENVELOPE_VARIABLES,
+    MOTION_VARIABLES,
     TEST_POINT_VARIABLES,
 )
 from simplexspline.aero.selection.validation import (
@@ -724,10 +725,12 @@ def _split(data, settings: IdentificationSettings, log):
     cells = envelope.cell(env)
     excited = [c for c in settings.coefficients if c in data.columns]
     held = [v for v in TEST_POINT_VARIABLES if v in data.columns]
+    motion = [v for v in MOTION_VARIABLES if v in data.columns]
     is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
                                seed=settings.seed, groups=groups, cells=cells,
                                excitation=data[excited].to_numpy(dtype=float),
-                               ranges=data[held].to_numpy(dtype=float) if held else None)
+                               ranges=data[held].to_numpy(dtype=float) if held else None,
+                               motion=data[motion].to_numpy(dtype=float) if motion else None)
     ident, valid = data.loc[~is_val].copy(), data.loc[is_val].copy()
     # The metadata live in ``meta``; pandas deep-copies ``attrs`` on every column access
     # (0.26 s each with a campaign's reconstruction record), so the splits carry none.

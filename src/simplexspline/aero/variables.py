@@ -11,7 +11,7 @@ import math
 
 __all__ = ["CANDIDATE_VARIABLES", "COEFFICIENTS", "DEG", "ENVELOPE_VARIABLES",
            "LATERAL_COEFFICIENTS", "LATERAL_VARIABLES", "LONGITUDINAL_COEFFICIENTS",
-           "RATE_NAMES", "TEST_POINT_VARIABLES", "UNITS"]
+           "MOTION_VARIABLES", "RATE_NAMES", "TEST_POINT_VARIABLES", "UNITS"]
 
 #: Radians per degree (multiply a value in degrees by ``DEG`` to get radians).
 DEG = math.pi / 180.0
@@ -47,6 +47,11 @@ LATERAL_VARIABLES: tuple[str, ...] = ("beta", "phat", "rhat", "da", "dr", "betad
 #: Variables that describe where in the flight envelope a sample lies: the coverage of the
 #: identification data is judged in them (:mod:`simplexspline.aero.selection.coverage`).
 ENVELOPE_VARIABLES: tuple[str, ...] = ("alpha", "beta", "mach")
+
+#: The motions a maneuver makes: body rates and control deflections. A validation
+#: maneuver is held out only where the identification data make the same motions
+#: (:func:`~simplexspline.aero.selection.validation.split_by_maneuver`, ``motion``).
+MOTION_VARIABLES: tuple[str, ...] = ("p", "q", "r", "de", "da", "dr")
 
 #: Candidate variables that hold (about) still within a maneuver and change between them:
 #: the mass as fuel burns and the configuration set per test point. A validation maneuver

@@ -38,7 +38,8 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
                       keep: float = CONDITION_KEEP, cells: np.ndarray | None = None,
                       covered_keep: float = COVERED_KEEP,
                       excitation: np.ndarray | None = None,
-                      ranges: np.ndarray | None = None) -> np.ndarray:
+                      ranges: np.ndarray | None = None,
+                      motion: np.ndarray | None = None) -> np.ndarray:
     """Choose whole maneuvers for validation.
 
     Parameters
@@ -90,6 +91,19 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         ignored). The first and the last maneuver of a flight hold the extremes of the
         mass; a model that took the mass as a variable then met its validation outside its
         identified range, and the validation scored nothing (or an extrapolation).
+    motion : ndarray, shape (N, m), optional
+        The motions a maneuver makes (body rates, control deflections:
+        :data:`~simplexspline.aero.variables.MOTION_VARIABLES`). A maneuver is held out
+        only while, for every motion it makes (standard deviation within it at least
+        :data:`EXCITED` times the largest of any maneuver), at least ``covered_keep`` of
+        its samples lie in envelope ``cells`` (all in one without them) where the
+        maneuvers left for identification that make the same motion keep enough samples
+        (:func:`~simplexspline.aero.selection.coverage.threshold`). A model whose roll
+        terms are scheduled on the Mach number knows them only where rolls were flown:
+        on a flight-test course with one or two pulses per axis at each of six airspeeds,
+        the only aileron pulse at the top speed was held out, and the lateral models,
+        right elsewhere, met it with errors 8x its own variation (validation R^2 -18 to
+        -108), an extrapolation that no identification data could have told apart.
 
     Returns
     -------
@@ -123,6 +137,13 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         maneuvers, len(ids), np.asarray(excitation, dtype=float))
     low, high = (None, None) if ranges is None else _maneuver_ranges(
         maneuvers, len(ids), np.asarray(ranges, dtype=float))
+    if motion is not None:
+        moves, move_level = _excitation(maneuvers, len(ids), np.asarray(motion, dtype=float))
+        moves = moves >= move_level                          # (n_ids, m): motions made
+        where = np.unique(maneuvers, return_inverse=True)[1]
+        place = np.zeros(len(maneuvers), dtype=np.int64) if cells is None else cells
+        own_cells = np.zeros((len(ids), int(place.max()) + 1))
+        np.add.at(own_cells, (where, place), 1.0)
 
     sizes = np.bincount(labels)
 
@@ -145,6 +166,12 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
             moved = spread[i] >= level
             if np.any(moved & ~np.any(rest[:, None] & (spread >= level), axis=0)):
                 return False
+        if motion is not None:
+            for j in np.flatnonzero(moves[i]):
+                there = own_cells[rest & moves[:, j]].sum(axis=0)
+                mine = own_cells[i]
+                if mine[there >= threshold(there)].sum() < covered_keep * counts[i]:
+                    return False
         if cells is not None:
             after = left - own[i]
             hit = own[i] > 0
