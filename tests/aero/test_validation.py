@@ -311,3 +311,26 @@ def test_without_cells_a_motion_keeps_one_maneuver_that_makes_it():
     for seed in range(12):
         val = split_by_maneuver(man, 0.5, seed=seed, motion=np.column_stack([q, p]))
         assert 5 not in np.unique(man[val])
+
+
+def test_identify_splits_by_motion_only_when_asked():
+    """``IdentificationSettings(split_motion=True)`` passes the rates to the split: the
+    course's lone roll at the top airspeed then stays for identification; by default the
+    draw is the one without the motion rule."""
+    import pandas as pd
+
+    from simplexspline.aero.identify import IdentificationSettings, _split
+
+    man, cells, motion, kinds, lone = _course(np.random.default_rng(0))
+    rng = np.random.default_rng(1)
+    data = pd.DataFrame({"maneuver": man, "maneuver_type": kinds,
+                         "mach": 0.4 + 0.05 * cells + rng.normal(0, 1e-4, man.size),
+                         "alpha": 0.05 + rng.normal(0, 1e-4, man.size),
+                         "q": motion[:, 0], "p": motion[:, 1],
+                         "Cm": -0.5 * motion[:, 0], "Cl": -0.3 * motion[:, 1]})
+    held = {flag: [set(_split(data, IdentificationSettings(seed=s, split_motion=flag),
+                              lambda _: None)[1]["maneuver"]) for s in range(20)]
+            for flag in (False, True)}
+    assert any(lone in h for h in held[False])
+    assert not any(lone in h for h in held[True])
+    assert IdentificationSettings(split_motion=True).to_dict()["split_motion"] is True

@@ -112,6 +112,16 @@ class IdentificationSettings:
         type).
     seed : int
         Seed of the split and the folds.
+    split_motion : bool
+        Hold a maneuver out for validation only where identification keeps maneuvers
+        making the same motions (rates, controls) in its envelope cells
+        (:func:`~simplexspline.aero.selection.validation.split_by_maneuver`, ``motion``).
+        Off by default: on a still-air flight-test course it kept the only aileron pulse
+        at the top airspeed for identification (lateral validation R^2 -37/-18/-108 ->
+        -6.7/-0.66/-5.4), but the generalization benchmark's draws moved with it (83 of 96
+        models on target against 88; the c172p's Cm search lost its thrust scheduling on
+        the new identification set, 0.80 -> 4.26 x the noise) and the Cessna course's
+        roll model did worse on its new draw (docs/identification.md, step 2).
     reconstruct : {'auto', 'always', 'never'}
         Flight path reconstruction: 'auto' runs it unless the table already has the
         coefficient columns ``CX..Cn`` and ``phat, qhat, rhat``.
@@ -130,6 +140,7 @@ class IdentificationSettings:
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     validation_fraction: float = 0.25
     seed: int = 0
+    split_motion: bool = False
     reconstruct: str = "auto"
     workers: int | None = None
     thin_factor: float = 2.0
@@ -171,6 +182,7 @@ class IdentificationSettings:
             "structures": {c: s.to_dict() for c, s in self.starting_structures().items()},
             "select": self.select, "selection": self.selection.to_dict(),
             "validation_fraction": self.validation_fraction, "seed": self.seed,
+            "split_motion": self.split_motion,
             "reconstruct": self.reconstruct, "thin_factor": self.thin_factor,
         }
 
@@ -725,7 +737,8 @@ def _split(data, settings: IdentificationSettings, log):
     cells = envelope.cell(env)
     excited = [c for c in settings.coefficients if c in data.columns]
     held = [v for v in TEST_POINT_VARIABLES if v in data.columns]
-    motion = [v for v in MOTION_VARIABLES if v in data.columns]
+    motion = [v for v in MOTION_VARIABLES if v in data.columns] if settings.split_motion \
+        else []
     is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
                                seed=settings.seed, groups=groups, cells=cells,
                                excitation=data[excited].to_numpy(dtype=float),
