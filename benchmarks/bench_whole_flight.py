@@ -231,6 +231,10 @@ def main() -> None:
     ap.add_argument("--installation", action="store_true",
                     help="give the installation in the mapping file (vane positions and "
                     "calibrations, IMU position; not the lags), as bench_real_like does")
+    ap.add_argument("--turns", action="store_true",
+                    help="the maneuver list also logs the turns between maneuvers (type "
+                    "'turn'), as the real Citation II record's list did; without a heading "
+                    "channel they observe the wind")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     t0 = time.perf_counter()
@@ -250,7 +254,8 @@ def main() -> None:
     thrust_in_truth(df)    # the record has no thrust: the truth holds it as the data do
     results = []
     with tempfile.TemporaryDirectory() as tmp:
-        record = write_channel_record(df, args.keep or Path(tmp) / "record", rate_hz=10.0)
+        record = write_channel_record(df, args.keep or Path(tmp) / "record", rate_hz=10.0,
+                                      turns=args.turns)
         if args.installation:
             mapping = record / "mapping.toml"
             mapping.write_text(mapping.read_text() + "\n" + installation(sensors, False))

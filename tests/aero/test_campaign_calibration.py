@@ -15,7 +15,9 @@ from simplexspline.aero import import_record
 from simplexspline.aero.reconstruction.campaign_calibration import (
     FALSE_ALARM,
     OBSERVED,
+    WIND_FLOOR,
     campaign_priors,
+    campaign_wind,
     combine_campaign,
     combine_estimates,
     lone_in_gusts,
@@ -263,3 +265,34 @@ def test_an_airspeed_bias_the_campaign_cannot_determine_is_held_in_straight_stil
     assert float(np.sqrt(np.mean(err ** 2))) < 0.01
     assert rec.sensors()["held"]["tas"] == HELD_STRAIGHT
     assert "not estimated in a straight maneuver" in rec.summary()
+
+
+def _winds(values, sd=0.2, prior=10.0):
+    return [((n, sd, prior), (e, sd, prior), i) for i, (n, e) in enumerate(values)]
+
+
+def test_turns_that_agree_give_the_campaign_wind_with_the_floor_as_its_sigma():
+    """Three turns in one air mass: the wind is their combination, its sigma no smaller
+    than WIND_FLOOR (the wind's change over a flight that the turns cannot measure)."""
+    n, e, sd = campaign_wind(_winds([(3.0, -4.0), (3.2, -4.1), (2.9, -3.9)]))
+    assert n == pytest.approx(3.033, abs=0.01) and e == pytest.approx(-4.0, abs=0.01)
+    assert sd == WIND_FLOOR
+    # one turn, sharper than the floor: still the floor
+    assert campaign_wind(_winds([(3.0, -4.0)], sd=0.05))[2] == WIND_FLOOR
+
+
+def test_turns_that_disagree_give_a_sigma_as_wide_as_their_scatter():
+    """Separately simulated maneuvers, each with its own wind: none is left out as an
+    outlier (a wind that changes is not a bad estimate), and the sigma covers the
+    scatter, so the reconstruction does not take it as the straight maneuvers' wind."""
+    winds = [(-6.5, 4.6), (-6.1, 3.5), (8.1, -0.4)]
+    n, e, sd = campaign_wind(_winds(winds))
+    assert sd > 0.5 * np.std([w[0] for w in winds])
+    assert min(w[0] for w in winds) < n < max(w[0] for w in winds)
+
+
+def test_no_turn_gives_no_campaign_wind():
+    assert campaign_wind([]) is None
+    assert campaign_wind([((math.nan, 0.2, 10.0), (1.0, 0.2, 10.0), 0)]) is None
+    # as wide as the prior: no information
+    assert campaign_wind(_winds([(1.0, 1.0), (2.0, 2.0)], sd=20.0)) is None

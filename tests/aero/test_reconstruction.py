@@ -644,7 +644,8 @@ def turns_and_straights():
 
 
 def _straight(rec) -> list:
-    return [m for m, r in rec.maneuvers.items() if "WEAK" in r["observability"]["wind"]]
+    return [m for m, r in rec.maneuvers.items()
+            if "changes by less than" in r["observability"]["wind"]]
 
 
 def test_the_imu_biases_of_the_turns_hold_those_of_the_straight_maneuvers(

@@ -91,18 +91,19 @@ def _ground(first: dict, n: int, lowest_m: float) -> dict:
 _NOT_MANEUVERS = ("steady", "turn", "transition")
 
 
-def _pieces(df, step: int):
+def _pieces(df, step: int, turns: bool = False):
     """The flight pieces at the output rate, in flight order, with their maneuvers as
     ``(first, last, type, id)`` sample spans inside each piece: a campaign's maneuvers by
     decreasing mass (fuel is burnt), one maneuver each; or a whole flight (metadata
-    ``flight``) as one piece holding every maneuver it flew."""
+    ``flight``) as one piece holding every maneuver it flew (and its turns, with
+    ``turns``)."""
     segments = (df.attrs.get("flight") or {}).get("segments")
     if segments is not None and df["maneuver"].nunique() == 1:
         g = df.iloc[::step]
         t = g["t"].to_numpy(dtype=float)
         spans, k = [], 0
         for seg in segments:
-            if seg["type"] in _NOT_MANEUVERS:
+            if seg["type"] in _NOT_MANEUVERS and not (turns and seg["type"] == "turn"):
                 continue
             a = int(np.searchsorted(t, seg["start_s"] - 1e-9))
             b = int(np.searchsorted(t, seg["end_s"] + 1e-9)) - 1
@@ -129,12 +130,12 @@ def _gyro_samples(df):
     return out
 
 
-def _joined(df, rate_hz: float, transition_s: float, ground_s: float):
+def _joined(df, rate_hz: float, transition_s: float, ground_s: float, turns: bool = False):
     """One continuous flight at ``rate_hz``: a ground segment, the flight pieces with
     smooth cosine transitions between them, a ground segment; returns columns, truth
     names, times and the maneuver list."""
     step = int(round(float(df.attrs.get("sample_rate_hz", 100.0)) / rate_hz))
-    pieces = _pieces(df, step)
+    pieces = _pieces(df, step, turns)
     truth_cols = [c for c in df.columns if c.startswith("true_")]
     n_blend = int(round(transition_s * rate_hz))
     w = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, n_blend + 2)[1:-1])
@@ -239,7 +240,8 @@ def _mapping(meta: dict, rate_hz: float, ramp_kg: float, radii: dict,
 
 
 def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 10.0,
-                         transition_s: float = 15.0, ground_s: float = 20.0) -> Path:
+                         transition_s: float = 15.0, ground_s: float = 20.0,
+                         turns: bool = False) -> Path:
     """Write a campaign as a real-format record: one text file per channel, aviation units.
 
     Parameters
@@ -260,6 +262,11 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
     ground_s : float
         Length of the ground segments (taxiing at 8 m/s, 300 m below the lowest maneuver)
         that start and end the record, as a real flight does [s]; 0 for none.
+    turns : bool
+        A whole flight's ``maneuvers.csv`` also lists its turns (type ``turn``), as a
+        flight-test engineer who logs them does (the real Citation II record's list held
+        turns). Without a heading channel they are what observes the wind
+        (:func:`~simplexspline.aero.reconstruction.campaign_calibration.campaign_wind`).
 
     Returns
     -------
@@ -305,7 +312,7 @@ def write_channel_record(df, directory: str | os.PathLike, *, rate_hz: float = 1
     if ratio > 1:
         df = _gyro_samples(df)
     cols, truth_cols, t, spans = _joined(df, float(rate_hz), float(transition_s),
-                                         float(ground_s))
+                                         float(ground_s), bool(turns))
     cas, temp = _air_data(cols["mach"], cols["true_tas"], cols["true_mach"], cols["true_rho"])
     lat, lon = _position(cols["true_vn_gps"] if "true_vn_gps" in cols else cols["vn_gps"],
                          cols["true_ve_gps"] if "true_ve_gps" in cols else cols["ve_gps"],

@@ -40,13 +40,19 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from statistics import NormalDist
 
-__all__ = ["FALSE_ALARM", "OBSERVED", "CombinedEstimate", "campaign_priors", "combine_campaign",
+__all__ = ["FALSE_ALARM", "OBSERVED", "WIND_FLOOR", "CombinedEstimate", "campaign_priors",
+           "campaign_wind", "combine_campaign",
            "combine_estimates", "lone_in_gusts", "outlier_threshold", "prior_conflicts",
            "spread_between"]
 
 #: Chance that an honest campaign loses an estimate (a Bonferroni bound over its constants
 #: and their estimates).
 FALSE_ALARM = 0.01
+#: Smallest sigma [m/s] of the campaign's wind as a straight maneuver's prior
+#: (:func:`campaign_wind`): the wind of one air mass changes over a flight's hour and a few
+#: hundred metres of altitude by about this much at least, and a turn or two cannot
+#: measure that change.
+WIND_FLOOR = 0.5
 #: Largest ratio of a maneuver's posterior sigma to the prior's for its estimate to be
 #: combined (:func:`combine_campaign`): the maneuver observes the constant itself.
 OBSERVED = 0.5
@@ -315,3 +321,47 @@ def prior_conflicts(posterior: dict, prior: dict) -> dict:
             if z > limit:
                 found[k] = float(z)
     return found
+
+
+def campaign_wind(estimates: Sequence[tuple]) -> tuple[float, float, float] | None:
+    """The campaign's steady wind from the maneuvers that observe it: a straight maneuver's
+    prior when the record has no heading channel.
+
+    Without a heading channel a straight maneuver cannot tell its heading from a crosswind
+    (a heading error ``d`` and a crosswind ``V d`` give the same data), so the filter held
+    the crosswind at zero with the heading on the GPS track. In a lateral maneuver the
+    heading then changes by some degrees, the crab angle of the real wind ``W`` changes by
+    ``(W / V)`` times that, and the reconstructed sideslip took the difference: on a
+    still-air flight-test course (5.3 m/s of wind at 145-220 m/s) the pulses' sideslip
+    drifted by up to 6.7e-3 rad, more than the sideslip they made. The turns of the same
+    flight observe the wind (the wind triangle); their combination (:func:`_pool`), with
+    their scatter (:func:`spread_between`: none is left out, a wind that changes between
+    turns is a wind that changes) and :data:`WIND_FLOOR` added, starts every straight
+    maneuver when it is informative (the caller compares it with the prior's crosswind
+    sigma). Turns that disagree (separately simulated maneuvers, each with its own wind:
+    6-8 m/s from three directions) give a sigma as wide as their scatter.
+
+    Parameters
+    ----------
+    estimates : sequence of (north, east, maneuver)
+        Per turning maneuver, its wind's north and east components, each ``(value, sigma,
+        prior_sigma)`` [m/s], and the maneuver id.
+
+    Returns
+    -------
+    (north, east, sigma) or None
+        The wind [m/s] and one sigma for both components [m/s]; None without an estimate
+        or when together they hold less information than the prior.
+    """
+    comps = []
+    for j in range(2):
+        est = [(*e[j], e[2]) for e in estimates
+               if math.isfinite(e[j][0]) and e[j][1] > 0]
+        if not est:
+            return None
+        value, sd = _pool(est)
+        if not math.isfinite(sd):
+            return None
+        comps.append((value, math.hypot(sd, spread_between(est, value))))
+    sd = max(WIND_FLOOR, comps[0][1], comps[1][1])
+    return comps[0][0], comps[1][0], sd

@@ -36,6 +36,7 @@ from simplexspline.aero.data.flight_data import (
 from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
 from simplexspline.aero.reconstruction.campaign_calibration import (campaign_priors,
+                                                                     campaign_wind,
                                                                      combine_campaign,
                                                                      lone_in_gusts,
                                                                      prior_conflicts)
@@ -70,6 +71,10 @@ __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstru
 CONTROL_COLUMNS = ("de", "da", "dr", "dte", "flap")
 #: Constant air-data errors estimated for the whole campaign (``air_data_calibration``).
 CALIBRATION_STATES = ("btas", "balpha", "bbeta", "kalpha", "kbeta")
+#: The campaign's wind starts a straight maneuver without a heading channel only when its
+#: sigma is at most this share of the crosswind sigma the priors give
+#: (:func:`_crosswind_prior_sd`): turns that disagree leave the crosswind held at zero.
+INFORMATIVE_WIND = 0.5
 #: IMU biases that the campaign's maneuvers share (one IMU): each maneuver's prior is the
 #: others' estimate (``imu_calibration``).
 IMU_STATES = ("bax", "bay", "baz", "bp", "bq", "br")
@@ -291,6 +296,17 @@ class ReconstructionSettings:
         a prior, not a held value, so a maneuver that observes its biases still
         estimates them, and biases that change between flights give a wide prior.
         'maneuver': the filter's own prior (``prior['gyro_bias']``, ``accel_bias``).
+    wind_calibration : {'campaign', 'maneuver'}
+        Without a heading channel a straight maneuver cannot tell its heading from a
+        crosswind. 'campaign' (default): the turns of the first pass (those of
+        ``air_data_calibration``) observe the wind, and their combination
+        (:func:`~simplexspline.aero.reconstruction.campaign_calibration.campaign_wind`)
+        starts every straight maneuver, the heading at the GPS ground velocity's direction
+        less the crab angle; on a still-air flight-test course whose record lists two
+        turns, the sideslip error fell from 1.6e-3 to 3.6e-4 rad RMS (the pulses' from up
+        to 6.8e-3 to 1.3e-4..7.7e-4). 'maneuver', or a campaign without turns: the
+        crosswind is held at zero with the heading on the GPS track, and a lateral
+        maneuver's sideslip takes the crab angle's change as its heading changes.
     calibration_maneuvers : int
         The first pass uses at most this many GPS maneuvers, those with the largest heading
         change (what separates a constant wind from air-data errors), so its cost stays
@@ -329,6 +345,7 @@ class ReconstructionSettings:
     rate_integration: str = "auto"
     air_data_calibration: str = "campaign"
     imu_calibration: str = "campaign"
+    wind_calibration: str = "campaign"
     calibration_maneuvers: int = 20
     smooth_controls: bool = True
 
@@ -376,7 +393,7 @@ class ReconstructionSettings:
         if self.rate_integration not in ("auto", "euler", "trapezoid", "cubic"):
             raise InputError("rate_integration must be 'auto', 'euler', 'trapezoid' or "
                              "'cubic'")
-        for name in ("air_data_calibration", "imu_calibration"):
+        for name in ("air_data_calibration", "imu_calibration", "wind_calibration"):
             if getattr(self, name) not in ("campaign", "maneuver"):
                 raise InputError(f"{name} must be 'campaign' or 'maneuver', got "
                                  f"{getattr(self, name)!r}")
@@ -586,20 +603,32 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
                         process_var=q_model, measurement_std=meas_std)
     triangle = None
     crosswind_sd = None
+    campaign_wind = None
     if not present["psi"] and "wind_n" not in plan["held"]:
         triangle = _wind_triangle(z, rates, dt, present)
         turn = f"{math.degrees(MIN_HEADING_CHANGE):.0f} deg"
         if triangle is not None and triangle.heading_change < MIN_HEADING_CHANGE:
             crosswind_sd = _crosswind_prior_sd(s["prior"], float(np.nanmedian(task["tas"])))
-            plan["wind"] += (f"; crosswind and heading WEAK: no heading channel and the "
-                             f"heading changes by less than {turn}: the crosswind is not "
-                             f"observable, held at zero with the heading on the GPS track, "
-                             f"its sigma the prior's ({crosswind_sd:.1f} m/s)")
+            campaign_wind = task.get("wind_prior")
+            if campaign_wind is not None and \
+                    campaign_wind[2] <= INFORMATIVE_WIND * crosswind_sd:
+                plan["wind"] += (f"; the heading changes by less than {turn} (no heading "
+                                 f"channel): the wind starts at the campaign's turns' "
+                                 f"({campaign_wind[0]:.1f}, {campaign_wind[1]:.1f}) +- "
+                                 f"{campaign_wind[2]:.1f} m/s north, east, the heading at the "
+                                 f"GPS track less the crab angle it makes")
+                crosswind_sd = None
+            else:
+                campaign_wind = None
+                plan["wind"] += (f"; crosswind and heading WEAK: no heading channel and the "
+                                 f"heading changes by less than {turn}: the crosswind is not "
+                                 f"observable, held at zero with the heading on the GPS "
+                                 f"track, its sigma the prior's ({crosswind_sd:.1f} m/s)")
         elif triangle is not None:
             plan["psi"] = (f"estimated from the GPS track and the wind triangle (no heading "
                            f"channel; the maneuver turns by {turn} or more)")
     initial = initial_state(z, s["prior"], present=present, held=plan["held"], task=task,
-                            triangle=triangle)
+                            triangle=triangle, wind_prior=campaign_wind)
     for k, (value, _) in calibration.items():
         initial.x[STATE_NAMES.index(k)] = value     # held there (variance at the floor)
     imu_prior = {k: v for k, v in (task.get("imu_prior") or {}).items()
@@ -691,11 +720,18 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         if not np.isfinite(out["x_filt"]).all():
             return _reject(man, "filter diverged in the calibration pass")
         P = out["P_filt"][-1]
-        return {"maneuver": man, "ok": True, "gusts": gusts.std, "calibration": {
+        estimates = {
             k: (float(out["x_filt"][-1, STATE_NAMES.index(k)]),
                 float(math.sqrt(P[STATE_NAMES.index(k), STATE_NAMES.index(k)])),
                 float(math.sqrt(initial.P[STATE_NAMES.index(k), STATE_NAMES.index(k)])))
-            for k in CALIBRATION_STATES + IMU_STATES if k not in plan["held"]}}
+            for k in CALIBRATION_STATES + IMU_STATES if k not in plan["held"]}
+        # a turn without a heading channel observes the wind (campaign_wind)
+        wind = None
+        if triangle is not None and triangle.heading_change >= MIN_HEADING_CHANGE:
+            wind = tuple((float(out["x_filt"][-1, 18 + j]), float(math.sqrt(P[18 + j, 18 + j])),
+                          float(s["prior"]["wind"])) for j in range(2))
+        return {"maneuver": man, "ok": True, "gusts": gusts.std, "wind": wind,
+                "altitude": float(np.nanmedian(h)), "calibration": estimates}
     innov = out["innov"]
     stats = innovation_statistics(innov, out["innov_var"])
     if plan["beta_pseudo"]:
@@ -856,6 +892,31 @@ def _gps_track(z: np.ndarray) -> float:
     return math.atan2(z[b, jy] - z[a, jy], z[b, jx] - z[a, jx])
 
 
+def _ground_velocity(z: np.ndarray, dt: float) -> tuple[float, float]:
+    """Ground velocity (north, east) [m/s] at the start of a maneuver: the first GPS
+    velocity, else the slope of a straight line through the GPS positions of the first
+    :data:`_GROUND_VELOCITY_S` seconds (sample interval ``dt`` [s]); NaN without either."""
+    jn, je = MEASUREMENT_NAMES.index("vn_gps"), MEASUREMENT_NAMES.index("ve_gps")
+    ok = np.flatnonzero(np.isfinite(z[:, jn]) & np.isfinite(z[:, je]))
+    if ok.size:
+        return float(z[ok[0], jn]), float(z[ok[0], je])
+    jx, jy = MEASUREMENT_NAMES.index("x_gps"), MEASUREMENT_NAMES.index("y_gps")
+    if not dt > 0:
+        return math.nan, math.nan
+    k = np.arange(min(len(z), max(2, int(round(_GROUND_VELOCITY_S / dt)))))
+    ok = k[np.isfinite(z[k, jx]) & np.isfinite(z[k, jy])]
+    if ok.size < 2:
+        return math.nan, math.nan
+    t = ok * dt
+    return (float(np.polyfit(t, z[ok, jx], 1)[0]), float(np.polyfit(t, z[ok, jy], 1)[0]))
+
+
+#: Span [s] of the GPS positions whose straight line gives a maneuver's initial ground
+#: velocity (:func:`_ground_velocity`): at 10 Hz and 3 m of position noise, 10 s at 200 m/s
+#: fix its direction to about 5e-4 rad.
+_GROUND_VELOCITY_S = 10.0
+
+
 def _ground_track(z: np.ndarray) -> float:
     """Mean ground track [rad] of a maneuver: first to last GPS position, else the mean
     GPS velocity."""
@@ -882,7 +943,8 @@ def _first_valid(z: np.ndarray, j: int) -> float:
 
 def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = None,
                   held: Mapping | None = None, task: Mapping | None = None,
-                  triangle: WindTriangle | None = None) -> StateEstimate:
+                  triangle: WindTriangle | None = None,
+                  wind_prior: tuple | None = None) -> StateEstimate:
     """Initial state from the first valid air-data, attitude and GPS samples.
 
     Parameters
@@ -903,6 +965,11 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
         reaches :data:`~simplexspline.aero.reconstruction.wind_triangle.MIN_HEADING_CHANGE`,
         the heading and the wind start at its solution; otherwise the heading starts at the
         GPS track.
+    wind_prior : (float, float, float), optional
+        A straight maneuver without a heading channel: the campaign's wind (north, east
+        [m/s]) and its sigma [m/s] (:func:`campaign_wind`). The wind starts there with that
+        sigma, and the heading at the direction of the GPS ground velocity less the wind
+        (the crab angle), its sigma the wind's over the airspeed.
 
     Returns
     -------
@@ -925,6 +992,19 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
         if triangle is not None and triangle.heading_change >= MIN_HEADING_CHANGE:
             psi, psi_sd = triangle.psi0, prior["heading"]
             x0[18:20] = [triangle.wind_n, triangle.wind_e]
+        elif math.isfinite(track) and wind_prior is not None:
+            t = np.asarray(task["t"], dtype=float) if task is not None and "t" in task \
+                else np.array([])
+            vn, ve = _ground_velocity(z, float(np.median(np.diff(t))) if t.size > 1
+                                      else math.nan)
+            air_n, air_e = vn - wind_prior[0], ve - wind_prior[1]
+            speed = math.hypot(air_n, air_e)
+            if math.isfinite(speed) and speed > 0:
+                psi = math.atan2(air_e, air_n) - b
+                psi_sd = math.hypot(wind_prior[2] / speed, prior["attitude"])
+                x0[18:20] = wind_prior[:2]
+            else:
+                psi, psi_sd, wind_prior = track, prior["heading"], None
         elif math.isfinite(track):
             psi, psi_sd = track, prior["heading"]
         else:
@@ -951,6 +1031,8 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
     sd[15:17] = prior["vane_bias"]
     sd[17] = prior["tas_bias"]
     sd[18:21] = prior["wind"]
+    if wind_prior is not None and not math.isfinite(m["psi"]):
+        sd[18:20] = wind_prior[2]
     sd[21:23] = prior["vane_scale"]
     sd[GUST] = 1e-8                  # gusts start held (the driver sets their variance)
     for name in held:
@@ -1358,7 +1440,7 @@ def _run_all(tasks: list, settings: dict, workers: _Workers, progress: bool) -> 
 
 
 def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: _Workers,
-                          progress: bool) -> tuple[dict, dict, dict, dict]:
+                          progress: bool) -> tuple[dict, dict, dict, dict, list]:
     """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
 
     Each maneuver's final estimate is a posterior of the same constant under the same
@@ -1387,10 +1469,15 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     imu_per_maneuver : dict
         Maneuver -> {IMU bias state: (value, sigma)}: the prior of a maneuver in the pass
         (the others' estimates).
+    winds : list
+        Without a heading channel: the wind that each turn of the pass observes, as
+        ``(north, east, maneuver, altitude [m])`` (north and east each ``(value, sigma,
+        prior sigma)`` [m/s]); empty without turns or with ``wind_calibration='maneuver'``
+        (:func:`_wind_prior`).
     """
     gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
     if not gps:
-        return {}, {}, {}, {}
+        return {}, {}, {}, {}, []
     gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
     # without a heading channel a straight maneuver trades its heading against a crosswind
     # and the air-data errors with them (wind_triangle): calibrate on the turns if any
@@ -1421,7 +1508,29 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     if settings.imu_calibration == "campaign":
         imu, imu_per_maneuver, imu_excluded = campaign_priors(estimates(IMU_STATES))
         excluded = {**excluded, **imu_excluded}
-    return out, excluded, imu, imu_per_maneuver
+    winds = [(*r["wind"], r["maneuver"], r["altitude"]) for r in results
+             if r["ok"] and r.get("wind")] if settings.wind_calibration == "campaign" else []
+    return out, excluded, imu, imu_per_maneuver, winds
+
+
+#: A straight maneuver takes the wind of the campaign's turns flown within this height [m]
+#: of its own median altitude (:func:`_wind_prior`): the wind changes with altitude (a few
+#: m/s per kilometre is common), and a wind from another altitude with a tight sigma would
+#: set a wrong crab angle.
+WIND_ALTITUDE_BAND = 300.0
+
+
+def _wind_prior(task: Mapping, winds: list) -> tuple | None:
+    """The wind a straight maneuver without a heading channel starts from: the combination
+    of the turns' winds within :data:`WIND_ALTITUDE_BAND` of its altitude
+    (:func:`~simplexspline.aero.reconstruction.campaign_calibration.campaign_wind`), or
+    None."""
+    h = np.asarray(task.get("h", []), dtype=float)
+    if not winds or not np.isfinite(h).any():
+        return None
+    level = float(np.nanmedian(h))
+    near = [w[:3] for w in winds if abs(w[3] - level) <= WIND_ALTITUDE_BAND]
+    return campaign_wind(near) if near else None
 
 
 #: Most reconstructions with estimated lags undone: the smoothed states partly follow a
@@ -1436,13 +1545,17 @@ def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: _Work
     the campaign's IMU biases and the per-maneuver results."""
     tasks = _tasks(df, geometry)
     calibration, excluded, imu = {}, {}, {}
-    if "campaign" in (settings.air_data_calibration, settings.imu_calibration):
-        calibration, excluded, imu, imu_per_maneuver = _campaign_calibration(
+    if "campaign" in (settings.air_data_calibration, settings.imu_calibration,
+                      settings.wind_calibration):
+        calibration, excluded, imu, imu_per_maneuver, winds = _campaign_calibration(
             tasks, settings, workers, progress)
         for task in tasks:
             if settings.air_data_calibration == "campaign":
                 task["calibration"] = calibration
             task["imu_prior"] = imu_per_maneuver.get(int(task["maneuver"]), imu)
+            wind = _wind_prior(task, winds)
+            if wind is not None:
+                task["wind_prior"] = wind
     return (tasks, calibration, excluded, imu,
             _run_all(tasks, settings.to_dict(), workers, progress))
 
