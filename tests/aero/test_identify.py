@@ -403,3 +403,25 @@ def test_validation_maneuvers_stay_inside_the_mass_range_of_identification(table
     assert validated and not ends & validated
     mass, ident = res.validation["mass"], res.identification["mass"]
     assert mass.min() >= ident.min() and mass.max() <= ident.max()
+
+
+def test_a_flow_angle_rate_is_not_offered_to_the_force_that_makes_it(table):
+    """alpha' holds Z/m by the equations of motion: a column alphadot_hat that is (a noisy
+    copy of) CZ itself would explain CZ without alpha. The search never tries it for CZ
+    (nor betadot_hat for CY), and still does for Cm."""
+    from simplexspline.aero.variables import RATES_OF_FORCES
+
+    rng = np.random.default_rng(0)
+    cols = {c: table[c].to_numpy() for c in ("alpha", "de", "mach", "qhat", "beta")}
+    cols["alphadot_hat"] = table["CZ"].to_numpy() + rng.normal(0, 1e-4, len(table))
+    cols["betadot_hat"] = table["CY"].to_numpy() + rng.normal(0, 1e-4, len(table))
+    settings = replace(FAST, max_rounds=1)
+    for coefficient, start, rate in (("CZ", ("alpha", "de"), "alphadot_hat"),
+                                     ("CY", ("beta",), "betadot_hat"),
+                                     ("Cm", ("alpha", "de"), "alphadot_hat")):
+        assert (coefficient in RATES_OF_FORCES[rate]) == (coefficient != "Cm")
+        _best, history = select_structure(Structure(coefficient, start), cols,
+                                          table[coefficient].to_numpy(),
+                                          table["maneuver"].to_numpy(), settings)
+        tried = any(rate in t.structure.label() for t in history)
+        assert tried == (coefficient == "Cm"), coefficient

@@ -718,3 +718,22 @@ def test_a_maneuver_with_another_gyro_bias_keeps_its_own_and_is_named(turns_and_
     assert f"maneuver {bad}'s estimate" in rec.summary()
     assert re.search(rf"estimated from the filter's own prior in maneuver\(s\) {bad} "
                      r"\(r [\d.]+ sigma", rec.summary())
+
+
+def test_a_straight_maneuver_takes_the_wind_of_the_turns_at_its_altitude():
+    """The wind changes with altitude: only the turns within WIND_ALTITUDE_BAND of the
+    maneuver's median altitude give its prior; none there, none at all."""
+    from simplexspline.aero.reconstruction.reconstruct import WIND_ALTITUDE_BAND, _wind_prior
+
+    def turn(n, e, man, h):
+        return ((n, 0.2, 10.0), (e, 0.2, 10.0), man, h)
+
+    winds = [turn(3.0, -4.0, 0, 3000.0), turn(3.1, -4.1, 1, 3100.0),
+             turn(-9.0, 2.0, 2, 6000.0)]
+    low = _wind_prior({"h": np.full(50, 3050.0)}, winds)
+    assert low[0] == pytest.approx(3.05, abs=0.01) and low[1] == pytest.approx(-4.05, abs=0.01)
+    high = _wind_prior({"h": np.full(50, 6000.0 + 0.9 * WIND_ALTITUDE_BAND)}, winds)
+    assert high[0] == pytest.approx(-9.0)
+    assert _wind_prior({"h": np.full(50, 4500.0)}, winds) is None
+    assert _wind_prior({"h": np.full(50, 3000.0)}, []) is None
+    assert _wind_prior({"h": np.full(50, np.nan)}, winds) is None

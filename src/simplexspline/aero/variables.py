@@ -11,7 +11,8 @@ import math
 
 __all__ = ["CANDIDATE_VARIABLES", "COEFFICIENTS", "DEG", "ENVELOPE_VARIABLES",
            "LATERAL_COEFFICIENTS", "LATERAL_VARIABLES", "LONGITUDINAL_COEFFICIENTS",
-           "MOTION_VARIABLES", "RATE_NAMES", "TEST_POINT_VARIABLES", "UNITS"]
+           "MOTION_VARIABLES", "RATE_NAMES", "RATES_OF_FORCES", "TEST_POINT_VARIABLES",
+           "UNITS"]
 
 #: Radians per degree (multiply a value in degrees by ``DEG`` to get radians).
 DEG = math.pi / 180.0
@@ -33,6 +34,18 @@ CANDIDATE_VARIABLES: tuple[str, ...] = ("alpha", "beta", "mach", "phat", "qhat",
                                         "de", "da", "dr", "alphadot_hat", "betadot_hat",
                                         "flap", "gear", "speedbrake", "dte", "mass", "tc",
                                         "tc_ff", "tc_n1")
+
+#: The flow-angle rates and the force coefficients that make them. By the equations of
+#: motion ``alpha' = (u w' - w u') / (u^2 + w^2)`` holds ``X/m`` and ``Z/m`` (``w' = Z/m +
+#: g cos(theta) cos(phi) + q u - p v``), and ``beta'`` holds ``Y/m``: offered to those
+#: coefficients, a flow-angle rate is a noisy copy of the coefficient itself. On a
+#: still-air Cessna course the search took CZ(mach | 1, qhat, de, alphadot_hat) S^1_3,
+#: without alpha (with alpha' = q + Z/(m V) + ..., alpha, qhat and de carry nothing
+#: alphadot_hat does not): validation R^2 0.998, and a lift-curve slope of 0. The structure
+#: search does not offer them to these coefficients (a structure given with them keeps
+#: them); the moments keep them (the downwash lag of Cm).
+RATES_OF_FORCES: dict[str, tuple[str, ...]] = {"alphadot_hat": ("CX", "CZ"),
+                                               "betadot_hat": ("CY",)}
 
 #: The longitudinal coefficients and the lateral-directional ones. An aircraft is (close
 #: to) mirror-symmetric about its x-z plane, so its longitudinal coefficients are even

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from simplexspline._compute_slots import compute_slot
-from simplexspline.aero.variables import CANDIDATE_VARIABLES
+from simplexspline.aero.variables import CANDIDATE_VARIABLES, RATES_OF_FORCES
 from simplexspline.aero.modelling.structure_space import (
     StructureSpace,
     accumulate,
@@ -663,7 +663,9 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                          "for cross-validation; give more maneuvers or use select=False "
                          "(--no-select)")
     cols, ys, folds, scored, mans = setup
-    available = [v for v in cols if np.ptp(np.asarray(cols[v], dtype=float)) > 0]
+    # a flow-angle rate is not offered to a force that makes it (RATES_OF_FORCES)
+    available = [v for v in cols if np.ptp(np.asarray(cols[v], dtype=float)) > 0
+                 and start.coefficient not in RATES_OF_FORCES.get(v, ())]
     ranges = {v: (float(np.min(cols[v])), float(np.max(cols[v]))) for v in available}
     budget = min(settings.max_coefficients, int(max(
         len(ys) / settings.samples_per_coefficient,
