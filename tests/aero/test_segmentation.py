@@ -73,3 +73,46 @@ def test_quiet_window_must_be_a_number(tmp_path, value):
     with pytest.raises(InputError, match=r"segments.quiet_s.*finite number"):
         import_record(_mapping(tmp_path, f"[segments]\nmethod = \"excitation\"\n"
                                          f"quiet_s = {value}\n"))
+
+
+def test_a_turn_is_found_by_its_heading_change_and_keeps_its_steady_part():
+    """A 90 deg turn at 1.5 deg/s (rolled in and out over 5 s) and an aileron doublet that
+    moves the heading back and forth: one turn, from its roll-in to its roll-out; the
+    doublet is not a turn. Trimmed by maneuvers detected at its entry and exit, the turn
+    keeps its longest free part."""
+    from simplexspline.aero.data.segmentation import Segment, detect_turns, outside
+    from simplexspline.aero.reconstruction.wind_triangle import MIN_HEADING_CHANGE
+
+    t = np.arange(0.0, 400.0, 0.1)
+    rate = np.interp(t, [100.0, 105.0, 160.0, 165.0], [0.0, 1.5, 1.5, 0.0]) * np.pi / 180
+    rate = np.where((t > 100) & (t < 165), rate, 0.0)
+    rate += np.where((t > 250) & (t < 260), 2.0 * np.sin(2 * np.pi * (t - 250) / 5.0), 0.0) \
+        * np.pi / 180
+    phi = np.where(rate != 0, 0.3 * np.sign(rate), 0.0)
+    data = {"q": rate * np.sin(phi), "r": rate * np.cos(phi), "phi": phi,
+            "theta": np.full(t.size, 0.05)}
+    data["r"] = data["r"] * np.cos(data["theta"])
+    data["q"] = data["q"] * np.cos(data["theta"])
+    turns = detect_turns(t, data, np.ones(t.size, bool), min_change=MIN_HEADING_CHANGE)
+    assert len(turns) == 1 and turns[0].type == "turn"
+    assert 96.0 < turns[0].start < 104.0 and 161.0 < turns[0].end < 169.0
+    assert detect_turns(t, {"q": data["q"]}, np.ones(t.size, bool), min_change=0.3) == []
+    entry, exit_ = Segment(95.0, 108.0, "excitation-aileron"), Segment(158.0, 170.0, "x")
+    steady = outside(turns[0], [entry, exit_])
+    assert steady == Segment(108.0, 158.0, "turn")
+    assert outside(turns[0], [Segment(0.0, 400.0, "flight")]) is None
+
+
+def test_the_turns_between_detected_maneuvers_become_maneuvers_unless_switched_off(tmp_path):
+    """tests/data/citation_like flies straight: no turn is added, and the key must be a
+    boolean."""
+    from simplexspline.errors import InputError
+
+    assert not any("turn(s) cut" in n for n in import_record(_mapping(tmp_path, ""))
+                   .segment_notes)
+    off = import_record(_mapping(tmp_path, "[segments]\nturns = false\n"))
+    assert [s["type"] for s in off.segments()] == ["excitation-elevator",
+                                                   "excitation-aileron",
+                                                   "excitation-elevator"]
+    with pytest.raises(InputError, match=r"turns.*must be true or false"):
+        import_record(_mapping(tmp_path, "[segments]\nturns = \"yes\"\n"))

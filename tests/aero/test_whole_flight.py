@@ -72,19 +72,28 @@ def _check(tmp_path, mapping, capsys):
 
 
 def test_a_whole_flight_imports_and_identifies_with_the_defaults(tmp_path, capsys):
-    rec, mapping, _ = _record(tmp_path, legs=[(3000.0, 150.0), (3000.0, 185.0)],
-                              maneuvers=12, seed=3, steady_s=(10.0, 20.0))
+    rec, mapping, df = _record(tmp_path, legs=[(3000.0, 150.0), (3000.0, 185.0)],
+                               maneuvers=12, seed=3, steady_s=(10.0, 20.0))
     _check(tmp_path, mapping, capsys)
     flight = pd.read_parquet(tmp_path / "flight.parquet")
-    found = [(g["t_record"].iloc[0], g["t_record"].iloc[-1])
+    found = [(g["t_record"].iloc[0], g["t_record"].iloc[-1], g["maneuver_type"].iloc[0])
              for _, g in flight.groupby("maneuver")]
     flown = pd.read_csv(rec / "maneuvers.csv")
     for _, m in flown.iterrows():     # every flown maneuver found (most of it)
-        assert max(min(b, m["end"]) - max(a, m["start"]) for a, b in found) \
+        assert max(min(b, m["end"]) - max(a, m["start"]) for a, b, _ in found) \
             > 0.5 * (m["end"] - m["start"]), m["type"]
-    outside = [(a, b) for a, b in found
-               if not any(min(b, m["end"]) > max(a, m["start"]) for _, m in flown.iterrows())]
+    outside = [(a, b) for a, b, kind in found if kind != "turn"
+               and not any(min(b, m["end"]) > max(a, m["start"]) for _, m in flown.iterrows())]
     assert len(outside) <= 2, outside  # a turn entry, a speed change: not maneuvers
+    # the turns the import cuts between the maneuvers lie in turns the aircraft flew
+    listed = pd.read_csv(write_channel_record(df, tmp_path / "with-turns", turns=True)
+                         / "maneuvers.csv")
+    turns = listed[listed["type"] == "turn"]
+    cut = [(a, b) for a, b, kind in found if kind == "turn"]
+    assert cut
+    for a, b in cut:
+        assert any(min(b, u["end"]) - max(a, u["start"]) > 0.5 * (b - a)
+                   for _, u in turns.iterrows()), (a, b)
 
 
 @pytest.mark.slow
@@ -96,7 +105,8 @@ def test_a_long_whole_flight_through_four_test_points(tmp_path, capsys):
 
 def test_the_turns_of_a_flight_give_its_straight_maneuvers_the_wind(tmp_path):
     """A flight-test course in still air and a steady 5-6 m/s wind, without heading or
-    vane, whose maneuver list logs the turns between the maneuvers. The turns observe the
+    vane, whose maneuver list logs the turns between the maneuvers (or, without a list,
+    whose turns are found between the detected maneuvers). The turns observe the
     wind; with it (``wind_calibration='campaign'``, the default) the straight lateral
     maneuvers' sideslip no longer takes the crab angle's change as their heading changes:
     its RMS error over them falls by more than half (an aileron pulse's from 1.6e-2 to
@@ -125,5 +135,11 @@ def test_the_turns_of_a_flight_give_its_straight_maneuvers_the_wind(tmp_path):
         said = [run.maneuvers[m]["observability"]["wind"] for m in straight]
         assert all(("the campaign's turns'" in w) == (mode == "campaign") for w in said)
     assert err["campaign"] < 0.5 * err["maneuver"], err
+    # without a maneuver list the turns are found between the detected maneuvers
+    text = (rec / "mapping.toml").read_text()
+    (rec / "detect.toml").write_text(text[:text.index("[segments]")])
+    found = import_record(rec / "detect.toml")
+    assert (found.data.groupby("maneuver")["maneuver_type"].first() == "turn").sum() >= 2
+    assert any("turn(s) cut as maneuvers" in n for n in found.segment_notes)
     with pytest.raises(InputError, match="wind_calibration must be 'campaign' or 'maneuver'"):
         ReconstructionSettings(wind_calibration="turns")

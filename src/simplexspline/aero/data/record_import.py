@@ -33,6 +33,7 @@ from simplexspline.aero.data.records import read_channels
 from simplexspline.aero.data.sanity import SanityReport, check_record
 from simplexspline.aero.data.time_base import clean_time_stamps, common_grid, resample
 from simplexspline.aero.data.units import conversion
+from simplexspline.aero.reconstruction.wind_triangle import MIN_HEADING_CHANGE
 from simplexspline.errors import FlightDataError, InputError
 
 __all__ = ["ImportResult", "import_record"]
@@ -298,6 +299,18 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
         segments, _ = segmentation.detect_excitation(
             grid, cols, usable, threshold=seg.threshold, window_s=seg.window_s,
             pad_s=seg.pad_s, merge_s=seg.merge_s, quiet_s=seg.quiet_s)
+        if seg.turns:
+            # the turns between the maneuvers observe the wind of a record without heading
+            turns = [u for u in (segmentation.outside(u, segments) for u in
+                                 segmentation.detect_turns(grid, cols, usable,
+                                                           min_change=MIN_HEADING_CHANGE,
+                                                           pad_s=seg.pad_s))
+                     if u is not None]
+            if turns:
+                notes.append(f"{len(turns)} turn(s) cut as maneuvers of type 'turn' (their "
+                             "steady part between the detected maneuvers: without a heading "
+                             "channel they observe the wind)")
+            segments = sorted(segments + turns, key=lambda x: x.start)
     else:
         segments = segmentation.airborne_segments(grid, usable)
     pieces, cut_notes = segmentation.cut(grid, usable, segments,

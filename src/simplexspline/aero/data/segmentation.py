@@ -8,8 +8,8 @@ schema's maneuvers in three steps:
    ``min_height`` of the record's lowest (the runway's) pressure altitude;
 2. the maneuvers: a time list (:func:`read_maneuver_list`, CSV ``start,end,type`` or TOML
    ``[[maneuver]]``, record time [s]), or :func:`detect_excitation` (control-surface and
-   rate activity above ``threshold`` times the record's quiet level), or every airborne
-   stretch as one maneuver;
+   rate activity above ``threshold`` times the record's quiet level) with the turns between
+   them (:func:`detect_turns`), or every airborne stretch as one maneuver;
 3. :func:`cut`: each maneuver is intersected with the usable samples (airborne, no dropout);
    a maneuver interrupted by a dropout becomes several, pieces shorter than
    ``min_duration_s`` are dropped, and every decision is reported.
@@ -25,7 +25,8 @@ import numpy as np
 from simplexspline.errors import InputError
 
 __all__ = ["Segment", "airborne_mask", "read_maneuver_list", "detect_excitation",
-           "airborne_segments", "cut", "EXCITATION_SIGNALS"]
+           "detect_turns", "outside", "airborne_segments", "cut", "EXCITATION_SIGNALS",
+           "TURN_RATE"]
 
 #: Signals whose activity marks a maneuver, and the axis each belongs to.
 EXCITATION_SIGNALS: dict[str, str] = {"de": "elevator", "da": "aileron", "dr": "rudder",
@@ -261,6 +262,67 @@ def detect_excitation(t: np.ndarray, data, usable: np.ndarray, *, threshold: flo
         segments.append(Segment(float(t[a]) - pad_s, float(t[b - 1]) + pad_s,
                                 f"excitation-{axis}"))
     return segments, {n: float(np.median(levels[n][usable])) for n in names}
+
+
+#: Heading rate [rad/s] above which a sample counts as turning (:func:`detect_turns`):
+#: 0.3 deg/s, a 15 deg bank at 220 m/s turns at 0.7 deg/s, a standard-rate turn at 3.
+TURN_RATE = 0.3 * np.pi / 180.0
+
+
+def detect_turns(t: np.ndarray, data, usable: np.ndarray, *, min_change: float,
+                 smooth_s: float = 2.0, pad_s: float = 2.0) -> list[Segment]:
+    """The turns of a flight: stretches whose heading changes by ``min_change`` or more.
+
+    A record without a heading channel observes the wind only where the heading changes
+    (the reconstruction's wind triangle); the excitation detector does not cut a steady
+    turn (its rates hold still), so the turns are found here, from the Euler heading rate
+    ``(q sin(phi) + r cos(phi)) / cos(theta)`` averaged over ``smooth_s``: each stretch of
+    usable samples turning one way faster than :data:`TURN_RATE` whose heading change
+    reaches ``min_change``, padded by ``pad_s``, is a segment of type ``turn``.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Record time [s] on a uniform grid.
+    data : mapping of str to ndarray
+        ``q``, ``r`` [rad/s], ``phi``, ``theta`` [rad]; without one of them no turn is found.
+    usable : ndarray of bool, shape (n,)
+    min_change : float
+        Smallest heading change of a turn [rad].
+    smooth_s, pad_s : float
+        Averaging window of the heading rate and padding of each turn [s].
+
+    Returns
+    -------
+    list of Segment
+    """
+    if not all(c in data for c in ("q", "r", "phi", "theta")) or len(t) < 2:
+        return []
+    dt = float(np.median(np.diff(t)))
+    q, r, phi, theta = (_fill(np.asarray(data[c], dtype=float)) for c in ("q", "r", "phi",
+                                                                          "theta"))
+    rate = _moving_mean((q * np.sin(phi) + r * np.cos(phi)) / np.cos(theta),
+                        max(1, int(round(smooth_s / dt))))
+    out = []
+    for sign in (1.0, -1.0):
+        for a, b in _runs(usable & (sign * rate > TURN_RATE)):
+            if abs(float(np.sum(rate[a:b])) * dt) >= min_change:
+                out.append(Segment(float(t[a]) - pad_s, float(t[b - 1]) + pad_s, "turn"))
+    return sorted(out, key=lambda s: s.start)
+
+
+def outside(segment: Segment, others: list) -> Segment | None:
+    """The longest part of ``segment`` that none of ``others`` overlaps (None when they
+    cover it): a turn keeps its steady part between the maneuvers detected at its entry
+    and exit."""
+    pieces = [(segment.start, segment.end)]
+    for o in others:
+        pieces = [p for a, b in pieces
+                  for p in ((a, min(b, o.start)), (max(a, o.end), b)) if p[1] > p[0]]
+    if not pieces:
+        return None
+    a, b = max(pieces, key=lambda p: p[1] - p[0])
+    return Segment(a, b, segment.type)
 
 
 def airborne_segments(t: np.ndarray, usable: np.ndarray, kind: str = "flight") -> list[Segment]:
