@@ -425,3 +425,25 @@ def test_a_flow_angle_rate_is_not_offered_to_the_force_that_makes_it(table):
                                           table["maneuver"].to_numpy(), settings)
         tried = any(rate in t.structure.label() for t in history)
         assert tried == (coefficient == "Cm"), coefficient
+
+
+def test_a_model_without_its_flow_angle_says_the_slope_along_it_is_not_identified(table):
+    """Along a stationary series alpha, Mach and the elevator move together: a CZ model
+    on Mach alone fits, and its derivative along alpha is 0. identify names alpha as not
+    identified (not zero) when the data cannot tell it from the model's variables, and
+    says nothing when they can."""
+    rng = np.random.default_rng(3)
+    tied = table.copy()
+    tied["mach"] = 0.5 - 0.8 * tied["alpha"] + rng.normal(0, 1e-3, len(tied))
+    fixed = {"CZ": Structure("CZ", ("mach",), degree=2, continuity=1)}
+    settings = IdentificationSettings(coefficients=("CZ",), structures=fixed, select=False)
+    with pytest.warns(UserWarning, match="does not take alpha"):
+        res = identify(tied, settings=settings)
+    entry = res.results["CZ"].diagnostics["flow_angle_left_out"]
+    assert entry["variable"] == "alpha" and entry["partner"] == "mach"
+    assert entry["vif"] > 10 and not entry["separable"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        free = identify(table, settings=settings)
+    assert "flow_angle_left_out" not in free.results["CZ"].diagnostics
+    assert not any("does not take alpha" in w for w in free.warnings)

@@ -50,6 +50,7 @@ from simplexspline.aero.selection.diagnostics import collinearity, excitation
 from simplexspline.aero.variables import (
     COEFFICIENTS,
     ENVELOPE_VARIABLES,
+    FLOW_ANGLES,
     MOTION_VARIABLES,
     TEST_POINT_VARIABLES,
 )
@@ -977,6 +978,17 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
                                  for d in tangled)
                      + ": derivatives along them are uncertain (summary.json, "
                        "'diagnostics'); fly maneuvers that move them independently")
+    left_out = _flow_angle_left_out(c, columns, inputs, y - pred_i,
+                                    v_scores.get("autocorrelation"))
+    if left_out is not None:
+        msg = (f"{c}: the model does not take {left_out['variable']}, which the "
+               f"identification data cannot tell from its variables (VIF "
+               f"{left_out['vif']:.0f}, correlation {left_out['correlation']:+.2f} with "
+               f"{left_out['partner']}): its derivative along {left_out['variable']} is not "
+               f"identified (the model's is 0), not zero; fly maneuvers that move "
+               f"{left_out['variable']} independently")
+        notes.append(msg)
+        warn.append(msg)
     counts = np.asarray(model.provenance["counts"])
     thin = np.nonzero(counts < settings.thin_factor * best.ncoef_per_simplex)[0]
     if len(thin):
@@ -992,9 +1004,29 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     busy = busy_seconds()
     seconds = (time.perf_counter() - t0 if busy is None or busy0 is None
                else busy - busy0)
+    diagnostics = {"excitation": excited, "collinearity": separation}
+    if left_out is not None:
+        diagnostics["flow_angle_left_out"] = left_out
     result = CoefficientResult(model, v_scores, i_scores, history, counts, thin, seconds,
-                               {"excitation": excited, "collinearity": separation})
+                               diagnostics)
     return result, pred_v, notes, warn
+
+
+def _flow_angle_left_out(c: str, columns: Mapping, inputs: list, residual: np.ndarray,
+                         autocorrelation) -> dict | None:
+    """The coefficient's flow angle (:data:`~simplexspline.aero.variables.FLOW_ANGLES`)
+    when the model does not take it but the identification data cannot tell it from the
+    model's variables (its VIF among them above the limit): the collinearity entry, else
+    None. On a still-air Cessna course CZ's model took Mach, the elevator and the fuel
+    flow instead of alpha (all collinear along the stationary series) and predicted the
+    validation to 1.5x the noise: its lift-curve slope was 0, and only the slope, not the
+    model, was wrong."""
+    angle = FLOW_ANGLES.get(c)
+    if angle is None or angle in inputs or angle not in columns or not inputs:
+        return None
+    entry = next((d for d in collinearity(columns, [*inputs, angle], residual,
+                                          autocorrelation) if d["variable"] == angle), None)
+    return None if entry is None or entry["separable"] else entry
 
 
 def _covered(model: AeroModel, valid, in_cells: np.ndarray) -> np.ndarray:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["CANDIDATE_VARIABLES", "COEFFICIENTS", "DEG", "ENVELOPE_VARIABLES",
+__all__ = ["CANDIDATE_VARIABLES", "COEFFICIENTS", "DEG", "ENVELOPE_VARIABLES", "FLOW_ANGLES",
            "LATERAL_COEFFICIENTS", "LATERAL_VARIABLES", "LONGITUDINAL_COEFFICIENTS",
            "MOTION_VARIABLES", "RATE_NAMES", "RATES_OF_FORCES", "TEST_POINT_VARIABLES",
            "UNITS"]
@@ -53,6 +53,13 @@ RATES_OF_FORCES: dict[str, tuple[str, ...]] = {"alphadot_hat": ("CX", "CZ"),
 #: general physics, not knowledge of one aircraft.
 LONGITUDINAL_COEFFICIENTS: tuple[str, ...] = ("CX", "CZ", "Cm")
 LATERAL_COEFFICIENTS: tuple[str, ...] = ("CY", "Cl", "Cn")
+
+#: The flow angle each coefficient is first a function of: the angle of attack for the
+#: longitudinal ones, the sideslip for the lateral ones. A model without it whose
+#: variables the data cannot tell from it has an unidentified derivative along it, not a
+#: zero one, and says so (:func:`~simplexspline.aero.identify.identify`, collinearity).
+FLOW_ANGLES: dict[str, str] = {"CX": "alpha", "CZ": "alpha", "Cm": "alpha",
+                               "CY": "beta", "Cl": "beta", "Cn": "beta"}
 
 #: The lateral-directional variables (sign changes under the mirror symmetry).
 LATERAL_VARIABLES: tuple[str, ...] = ("beta", "phat", "rhat", "da", "dr", "betadot_hat")
