@@ -11,8 +11,10 @@ longitude only, no thrust, fuel used in lbs, taxiing on the ground at both ends)
 per variant of the mapping file:
 
 * ``excitation``: no maneuver list: ``[segments] method = "excitation"`` (a user without
-  a maneuver log);
-* ``list``: the flight-test engineer's maneuver list (``maneuvers.csv``);
+  a maneuver log; the import also cuts the turns between the detected maneuvers);
+* ``list``: the flight-test engineer's maneuver list (``maneuvers.csv``; with ``--turns``
+  it also logs the turns between the maneuvers, as the real record's list did: without a
+  heading channel they are what observes the wind);
 
 ``import_record`` and ``identify`` with default settings (identify reconstructs), and the
 derivatives of the identified models (``CL_alpha``, ``Cm_alpha``) against the simulator's
