@@ -427,7 +427,8 @@ def test_a_flow_angle_rate_is_not_offered_to_the_force_that_makes_it(table):
         assert tried == (coefficient == "Cm"), coefficient
 
 
-def test_a_model_without_its_flow_angle_says_the_slope_along_it_is_not_identified(table):
+def test_a_model_without_its_flow_angle_says_the_slope_along_it_is_not_identified(
+        table, tmp_path, capsys):
     """Along a stationary series alpha, Mach and the elevator move together: a CZ model
     on Mach alone fits, and its derivative along alpha is 0. identify names alpha as not
     identified (not zero) when the data cannot tell it from the model's variables, and
@@ -442,6 +443,14 @@ def test_a_model_without_its_flow_angle_says_the_slope_along_it_is_not_identifie
     entry = res.results["CZ"].diagnostics["flow_angle_left_out"]
     assert entry["variable"] == "alpha" and entry["partner"] == "mach"
     assert entry["vif"] > 10 and not entry["separable"]
+    # the model file keeps it, and the derivatives command says its CZ_alpha is not a
+    # measurement
+    from simplexspline.cli import main
+
+    path = res.results["CZ"].model.save(tmp_path / "CZ.json")
+    assert main(["derivatives", str(path), "-o", str(tmp_path / "d.csv"),
+                 "--alpha=0.05,0.1"]) == 0
+    assert "CZ_alpha is not identified" in capsys.readouterr().out
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         free = identify(table, settings=settings)

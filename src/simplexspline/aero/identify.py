@@ -989,6 +989,9 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
                f"{left_out['variable']} independently")
         notes.append(msg)
         warn.append(msg)
+        # in the model file too: the derivatives command names the slope it cannot give
+        model.provenance["not_identified"] = {left_out["variable"]: {
+            k: left_out[k] for k in ("vif", "partner", "correlation")}}
     counts = np.asarray(model.provenance["counts"])
     thin = np.nonzero(counts < settings.thin_factor * best.ncoef_per_simplex)[0]
     if len(thin):

@@ -307,7 +307,11 @@ def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) 
     print(f"{out}: {len(table)} conditions x {len(info)} derivatives ({len(inmodel)} in the "
           f"models, {len(info) - len(inmodel)} identically 0); {out}.json describes the "
           "columns" + (f"; {args.plot}" if args.plot else ""))
-    for c in models:
+    for c, model in models.items():
+        for v, why in (model.provenance.get("not_identified") or {}).items():
+            print(f"  {c}_{v} is not identified: the identification data could not tell {v} "
+                  f"from {why.get('partner')} (VIF {float(why.get('vif', math.nan)):.0f}), and "
+                  f"the model does not take {v}; its 0 is not a measurement")
         frac = float(np.mean(table[f"inside_{c}"]))
         if frac < 1:
             print(f"  {c}: {100 * (1 - frac):.0f} % of the conditions lie outside the "
