@@ -29,6 +29,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from simplexspline.aero.reconstruction.kinematics import euler_rates
+
 __all__ = ["SanityCheck", "SanityReport", "check_record", "G0"]
 
 G0 = 9.80665
@@ -142,15 +144,14 @@ def _rates(d, dt, mask, report):
     def sel(x):
         return np.where(mask, x, np.nan)
 
+    phi_rate, theta_rate, psi_rate = euler_rates(p, q, r, phi, theta)
     phid = sel(_deriv(phi, dt, wrap=True))
-    pred = p + np.tan(theta) * (q * np.sin(phi) + r * np.cos(phi))
-    report.checks.append(_rate_check("rate sign p", "p", phid, sel(pred), "d(phi)/dt",
+    report.checks.append(_rate_check("rate sign p", "p", phid, sel(phi_rate), "d(phi)/dt",
                                      min_std))
     thetad = sel(_deriv(theta, dt))
-    pred = q * np.cos(phi) - r * np.sin(phi)
-    report.checks.append(_rate_check("rate sign q", "q", thetad, sel(pred), "d(theta)/dt",
-                                     min_std))
-    pred = sel((q * np.sin(phi) + r * np.cos(phi)) / np.cos(theta))
+    report.checks.append(_rate_check("rate sign q", "q", thetad, sel(theta_rate),
+                                     "d(theta)/dt", min_std))
+    pred = sel(psi_rate)
     if "psi" in d:
         report.checks.append(_rate_check("rate sign r", "r", sel(_deriv(d["psi"], dt, True)),
                                          pred, "d(psi)/dt", min_std))

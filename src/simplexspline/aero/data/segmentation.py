@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simplexspline.aero.reconstruction.kinematics import euler_rates
 from simplexspline.errors import InputError
 
 __all__ = ["Segment", "airborne_mask", "read_maneuver_list", "detect_excitation",
@@ -301,7 +302,7 @@ def detect_turns(t: np.ndarray, data, usable: np.ndarray, *, min_change: float,
     dt = float(np.median(np.diff(t)))
     q, r, phi, theta = (_fill(np.asarray(data[c], dtype=float)) for c in ("q", "r", "phi",
                                                                           "theta"))
-    rate = _moving_mean((q * np.sin(phi) + r * np.cos(phi)) / np.cos(theta),
+    rate = _moving_mean(euler_rates(0.0, q, r, phi, theta)[2],
                         max(1, int(round(smooth_s / dt))))
     out = []
     for sign in (1.0, -1.0):

@@ -23,6 +23,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from simplexspline.aero.reconstruction.kinematics import euler_rates
+
 __all__ = ["kinematic_checks", "innovation_causes", "likely_causes"]
 
 _UNIT_RATIOS = ((180 / math.pi, "degrees where radians are expected"),
@@ -70,9 +72,7 @@ def kinematic_checks(task: Mapping, dt: float) -> list[str]:
            if c in task}
     if len(get) == 5 and len(get["p"]) > 20:
         p, q, r, phi, th = (get[c] for c in ("p", "q", "r", "phi", "theta"))
-        pred = {"phi": p + np.tan(th) * (q * np.sin(phi) + r * np.cos(phi)),
-                "theta": q * np.cos(phi) - r * np.sin(phi),
-                "psi": (q * np.sin(phi) + r * np.cos(phi)) / np.cos(th)}
+        pred = dict(zip(("phi", "theta", "psi"), euler_rates(p, q, r, phi, th)))
         for ch, rate in pred.items():
             if ch not in task or np.nanstd(rate) < 0.01:     # below 0.6 deg/s: cannot tell
                 continue

@@ -52,7 +52,7 @@ import numpy as np
 __all__ = [
     "STATE_NAMES", "INPUT_NAMES", "MEASUREMENT_NAMES", "BIAS_STATES", "WIND_STATES",
     "SCALE_STATES", "GUST_STATES", "GUST", "EarthModel",
-    "normal_gravity", "propagate", "measure", "step_mean",
+    "euler_rates", "normal_gravity", "propagate", "measure", "step_mean",
 ]
 
 #: State vector, in order.
@@ -91,6 +91,26 @@ _A = 6378137.0                  # WGS84 semi-major axis [m]
 _E2 = 6.69437999014e-3          # WGS84 first eccentricity squared
 _F = 1.0 / 298.257223563
 _M = 0.00344978650684           # omega^2 a^2 b / GM
+
+
+def euler_rates(p, q, r, phi, theta) -> tuple:
+    """The Euler angles' rates from the body rates and attitude.
+
+    Parameters
+    ----------
+    p, q, r : float or ndarray
+        Body rates [rad/s].
+    phi, theta : float or ndarray
+        Bank and pitch angles [rad].
+
+    Returns
+    -------
+    (phi', theta', psi') : tuple of float or ndarray
+        [rad/s]: ``p + tan(theta) (q sin(phi) + r cos(phi))``, ``q cos(phi) - r sin(phi)``,
+        ``(q sin(phi) + r cos(phi)) / cos(theta)``.
+    """
+    turn = q * np.sin(phi) + r * np.cos(phi)
+    return p + np.tan(theta) * turn, q * np.cos(phi) - r * np.sin(phi), turn / np.cos(theta)
 
 
 def normal_gravity(lat: float, h) -> np.ndarray | float:

@@ -45,6 +45,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from simplexspline.aero.reconstruction.kinematics import euler_rates
+
 __all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "channels_present",
            "heading_excursion", "observability_plan", "variance_reduction"]
 
@@ -194,8 +196,7 @@ def heading_excursion(task: Mapping) -> float:
     t = np.asarray(task["t"], dtype=float)
     if t.size < 2:
         return 0.0
-    phi, theta = np.asarray(task["phi"], dtype=float), np.asarray(task["theta"], dtype=float)
-    psidot = ((np.asarray(task["q"], dtype=float) * np.sin(phi)
-               + np.asarray(task["r"], dtype=float) * np.cos(phi)) / np.cos(theta))
+    psidot = euler_rates(0.0, *(np.asarray(task[c], dtype=float)
+                                for c in ("q", "r", "phi", "theta")))[2]
     psi = np.nancumsum(psidot) * float(np.median(np.diff(t)))
     return float(np.nanmax(psi) - np.nanmin(psi))

@@ -126,11 +126,11 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     else:
         cond = np.unique(np.asarray(conditions)[first], return_inverse=True)[1]
         room = (1.0 - keep) * np.bincount(cond, weights=counts)
+    where = np.unique(maneuvers, return_inverse=True)[1]      # maneuver index per sample
     if cells is not None:
         cells = np.asarray(cells)
         left = np.bincount(cells).astype(float)          # identification samples per cell
         min_count = threshold(left)
-        where = np.unique(maneuvers, return_inverse=True)[1]
         own = [np.bincount(cells[where == i], minlength=len(left)) for i in range(len(ids))]
     chosen = []
     spread, level = (None, None) if excitation is None else _excitation(
@@ -140,7 +140,6 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     if motion is not None:
         moves, move_level = _excitation(maneuvers, len(ids), np.asarray(motion, dtype=float))
         moves = moves >= move_level                          # (n_ids, m): motions made
-        where = np.unique(maneuvers, return_inverse=True)[1]
         place = np.zeros(len(maneuvers), dtype=np.int64) if cells is None else cells
         own_cells = np.zeros((len(ids), int(place.max()) + 1))
         np.add.at(own_cells, (where, place), 1.0)
