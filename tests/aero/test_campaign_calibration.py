@@ -20,6 +20,7 @@ from simplexspline.aero.reconstruction.campaign_calibration import (
     campaign_wind,
     combine_campaign,
     combine_estimates,
+    combine_joint,
     lone_in_gusts,
     outlier_threshold,
     prior_conflicts,
@@ -296,3 +297,66 @@ def test_no_turn_gives_no_campaign_wind():
     assert campaign_wind([((math.nan, 0.2, 10.0), (1.0, 0.2, 10.0), 0)]) is None
     # as wide as the prior: no information
     assert campaign_wind(_winds([(1.0, 1.0), (2.0, 2.0)], sd=20.0)) is None
+
+
+def _vane_posterior(alphas, offset, scale, noise, prior_sd, rng):
+    """A maneuver's exact (linear-Gaussian) posterior of a vane's (offset, scale error)
+    from readings ``offset + scale * alpha + noise`` at the angles ``alphas``, zero-mean
+    prior ``diag(prior_sd**2)``; returns the posterior and its data (H, y)."""
+    H = np.column_stack([np.ones_like(alphas), alphas])
+    y = H @ np.array([offset, scale]) + noise * rng.standard_normal(alphas.size)
+    info = np.diag(1 / np.asarray(prior_sd) ** 2) + H.T @ H / noise ** 2
+    cov = np.linalg.inv(info)
+    return cov @ (H.T @ y / noise ** 2), cov, H, y
+
+
+@hsettings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000))
+def test_maneuvers_at_one_angle_each_give_the_vane_offset_and_scale_together(seed):
+    """Six stationary measurements, each at one angle of attack, observe only
+    offset + k alpha: no marginal is determined (combine_campaign has nothing to combine),
+    but the joint combination is exactly the batch least-squares posterior of all the
+    readings, the prior counted once."""
+    rng = np.random.default_rng(seed)
+    prior_sd = (0.02, 0.05)
+    est, Hs, ys = [], [], []
+    for m, a in enumerate(np.linspace(0.0, 0.04, 6)):
+        mean, cov, H, y = _vane_posterior(np.full(200, a), 0.012, 0.04, 4e-3, prior_sd, rng)
+        est.append((mean, cov, prior_sd, m))
+        Hs.append(H)
+        ys.append(y)
+        assert math.sqrt(cov[1, 1]) > OBSERVED * prior_sd[1]     # k: not observed alone
+    marginal, _ = combine_campaign({"kalpha": [(e[0][1], math.sqrt(e[1][1, 1]), prior_sd[1],
+                                                e[3]) for e in est]})
+    assert marginal["kalpha"] is None
+    joint = combine_joint(est)
+    H, y = np.vstack(Hs), np.concatenate(ys)
+    info = np.diag(1 / np.asarray(prior_sd) ** 2) + H.T @ H / 4e-3 ** 2
+    batch_cov = np.linalg.inv(info)
+    np.testing.assert_allclose(joint.cov, batch_cov, rtol=1e-8)
+    np.testing.assert_allclose(joint.value, batch_cov @ (H.T @ y / 4e-3 ** 2), rtol=1e-7,
+                               atol=1e-12)
+    assert joint.used == tuple(range(6)) and not joint.excluded
+    assert joint.sigma()[1] < OBSERVED * prior_sd[1]           # determined together
+    assert abs(joint.value[1] - 0.04) < 5 * joint.sigma()[1]
+
+
+def test_a_maneuver_whose_vane_disagrees_is_left_out_of_the_joint_combination():
+    """One maneuver whose model was wrong (its reading 3e-3 rad off: a vane boom's
+    rate-induced angle in a steady turn) is named with its distance, and the others give
+    the vane; a maneuver that observes nothing is not combined, none at all gives None."""
+    rng = np.random.default_rng(3)
+    prior_sd = (0.02, 0.05)
+    est = [(*_vane_posterior(a + 1e-4 * rng.standard_normal(200), 0.012, 0.04, 4e-3,
+                             prior_sd, rng)[:2], prior_sd, m)
+           for m, a in enumerate(np.linspace(0.0, 0.04, 6))]
+    bad = _vane_posterior(np.full(200, 0.02), 0.012 - 3e-3, 0.04, 4e-3, prior_sd, rng)
+    est.append((*bad[:2], prior_sd, 9))
+    joint = combine_joint(est)
+    assert set(joint.excluded) == {9} and joint.excluded[9] > outlier_threshold(7)
+    assert 9 not in joint.used
+    assert abs(joint.value[0] - 0.012) < 4 * joint.sigma()[0]
+    blind = (np.zeros(2), np.diag(np.square(prior_sd)), prior_sd, 11)     # the prior itself
+    assert 11 not in combine_joint(est + [blind]).used
+    assert combine_joint([blind]) is None
+    assert combine_joint([]) is None

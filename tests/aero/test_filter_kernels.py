@@ -72,12 +72,13 @@ def _flight(seed: int, n: int = 400, gust_std: float = 1.0):
     x[6:9] = (0.3, 0.05, 2.0)
     x[9:18] = (0.02, -0.01, 0.03, 1e-3, -5e-4, 2e-4, 0.01, -0.005, 0.5)
     x[18:23] = (4.0, -3.0, 0.2, 0.02, -0.03)
+    x[26:28] = (0.8, -0.5)                  # vane position errors along x [m]
     x[GUST] = gust_std * rng.standard_normal(3)
     F = np.eye(NX)
     t = np.arange(n) * DT
     u = np.column_stack([0.5 * np.sin(t), 0.3 * np.cos(2 * t), -9.5 + np.sin(3 * t),
                          0.2 * np.sin(1.5 * t), 0.05 + 0.02 * np.cos(t), 0.04 * np.sin(t)])
-    arm = 0.05 * rng.standard_normal((n, 6))
+    arm = 0.05 * rng.standard_normal((n, 9))
     states = np.empty((n, NX))
     for k in range(n):
         states[k] = x
@@ -92,10 +93,10 @@ def _flight(seed: int, n: int = 400, gust_std: float = 1.0):
     q[3:6] = 1e-6
     q[GUST] = q_gust
     noise = FilterNoise(np.array([0.01, 0.01, 0.01, 2e-4, 2e-4, 2e-4]), q, std)
-    x0 = states[0] + 0.1 * rng.standard_normal(NX) * np.r_[np.ones(9), np.zeros(17)]
+    x0 = states[0] + 0.1 * rng.standard_normal(NX) * np.r_[np.ones(9), np.zeros(19)]
     sd = np.r_[np.full(3, 5.0), np.full(3, 1.0), np.full(3, 0.01), np.full(3, 0.1),
                np.full(3, 2e-3), 0.02, 0.02, 2.0, np.full(3, 10.0), 0.05, 0.05,
-               np.full(3, gust_std)]
+               np.full(3, gust_std), 2.0, 2.0]
     return StateEstimate(x0, np.diag(sd ** 2)), u, z, earth, noise, arm, decay
 
 
@@ -192,7 +193,7 @@ def turbulent():
                     protocol=FlightProtocol(mix={"3211": 1})).run(workers=1, progress=False)
 
 
-def _compare_reconstructions(a, b):
+def _compare_reconstructions(a, b, rtol=RTOL):
     assert a.rejected == b.rejected and a.maneuvers.keys() == b.maneuvers.keys()
     assert a.lags_applied.keys() == b.lags_applied.keys()
     for m, ra in a.maneuvers.items():
@@ -200,7 +201,7 @@ def _compare_reconstructions(a, b):
         assert ra["iterations"][1] == rb["iterations"][1]
         _close(ra["iterations"][0], rb["iterations"][0], 0.0, "mean iterations")
         for ch, (value, sigma) in rb["biases"].items():
-            _close(ra["biases"][ch], (value, sigma), sigma, f"maneuver {m} bias {ch}")
+            _close(ra["biases"][ch], (value, sigma), sigma, f"maneuver {m} bias {ch}", rtol)
         assert ra["innovations"].keys() == rb["innovations"].keys()
         for ch, st in rb["innovations"].items():
             for k, v in st.items():
@@ -230,8 +231,11 @@ def test_reconstruction_in_turbulence_equals_the_reference(monkeypatch, turbulen
 
 
 def test_campaign_reconstruction_equals_the_reference(monkeypatch, noisy_campaign):
-    """Two still-air maneuvers: the campaign calibration pass, lags, the smoother."""
+    """Two still-air maneuvers: the campaign calibration pass, lags, the smoother. The
+    biases pass through the first pass, the joint combination of the vane constants (a
+    3 x 3 inversion of information sums) and the second pass: their round-off reaches
+    2e-9 of their sigma (measured 1.85e-9), so they are held to 1e-8."""
     data = noisy_campaign[noisy_campaign["maneuver"].isin([0, 2])]
     settings = ReconstructionSettings(gust_std=0)
     a, b = _both(monkeypatch, lambda: reconstruct(data, settings=settings, workers=1))
-    _compare_reconstructions(a, b)
+    _compare_reconstructions(a, b, rtol=1e-8)

@@ -300,7 +300,10 @@ def test_sensor_geometry_is_parsed_with_defaults(rng):
     assert geo.beta_vane.position_m == (0.0, 0.0, 0.0) and geo.beta_vane.scale == 1.0
     assert geo.imu_position_m == (0.0, 0.0, 0.0) and geo.lag_s == {"alpha": 0.05}
     assert geo.given == ("alpha_vane", "lag_s")
+    assert geo.positions_given == ("alpha_vane",)
     assert sensor_geometry({}).given == ()
+    calibration_only = sensor_geometry({"sensor_geometry": {"beta_vane": {"scale": 0.97}}})
+    assert calibration_only.given == ("beta_vane",) and calibration_only.positions_given == ()
 
 
 @pytest.mark.parametrize("geo, match", [

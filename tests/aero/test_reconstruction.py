@@ -33,6 +33,7 @@ def _state(rng):
     x[18:21] = [8.0, -5.0, 1.0]            # wind [m/s]
     x[21:23] = [0.05, -0.03]               # vane scale-factor errors
     x[23:26] = [1.5, -0.7, 0.4]            # gusts [m/s]
+    x[26:28] = [0.8, -1.1]                 # vane position errors along x [m]
     return x
 
 
@@ -55,7 +56,8 @@ def test_transition_matrix_matches_finite_differences():
     assert np.abs(num - F)[:3].max() < 1e-4     # position rows are exact
 
 
-@pytest.mark.parametrize("arm", [None, np.array([0.1, 0.0, -1.2, 0.3, 0.8, 0.0])])
+@pytest.mark.parametrize("arm", [None, np.array([0.1, 0.0, -1.2, 0.3, 0.8, 0.0,
+                                                 0.0, 0.05, -0.2])])
 def test_measurement_jacobian_matches_finite_differences(arm):
     rng = np.random.default_rng(2)
     x = _state(rng)
@@ -81,11 +83,14 @@ def test_air_data_see_the_wind_and_the_vane_positions():
     assert measure(x, None)[6] == pytest.approx(math.hypot(190.0, 10.0))
     x[18] = 0.0
     q, r, xv = 0.2, 0.1, 5.0         # pitch and yaw rate, vane 5 m ahead: omega x r
-    arm = np.array([0.0, r * xv, -q * xv, 0.0, r * xv, -q * xv])
+    arm = np.array([0.0, r * xv, -q * xv, 0.0, r * xv, -q * xv, 0.0, 0.0, 0.0])
     h = measure(x, None, arm)
     assert h[7] == pytest.approx(alpha - q * xv / V, rel=2e-3)
     assert h[8] == pytest.approx(r * xv / V, rel=2e-3)
-
+    # the same vanes given at the c.g., their position errors (states xalpha, xbeta) 5 m
+    x[26:28] = xv
+    unit = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, r, -q])     # omega x e_x
+    np.testing.assert_allclose(measure(x, None, unit), h, rtol=1e-12)
 
 def test_normal_gravity_values():
     assert normal_gravity(0.0, 0.0) == pytest.approx(9.7803253359)

@@ -322,6 +322,9 @@ class SensorGeometry:
     given : tuple of str
         The entries the metadata gave (``alpha_vane``, ``beta_vane``, ``imu``, ``lag_s``);
         the others are defaults (at the reference point, calibrated, no lag).
+    positions_given : tuple of str
+        The vanes (``alpha_vane``, ``beta_vane``) whose ``position_m`` the metadata gave:
+        the reconstruction estimates the others' position along x where observable.
     """
 
     alpha_vane: VaneCalibration = VaneCalibration()
@@ -329,6 +332,7 @@ class SensorGeometry:
     imu_position_m: tuple = (0.0, 0.0, 0.0)
     lag_s: dict = field(default_factory=dict)
     given: tuple = ()
+    positions_given: tuple = ()
 
 
 def _vector(value, where: str) -> tuple:
@@ -413,7 +417,9 @@ def sensor_geometry(metadata: Mapping) -> SensorGeometry:
         lag_s[ch] = lag
     return SensorGeometry(vanes["alpha_vane"], vanes["beta_vane"], arm, lag_s,
                           tuple(k for k in ("alpha_vane", "beta_vane", "imu", "lag_s")
-                                if k in geo))
+                                if k in geo),
+                          tuple(k for k in ("alpha_vane", "beta_vane")
+                                if "position_m" in (geo.get(k) or {})))
 
 
 def _fail(msg: str):

@@ -50,7 +50,7 @@ NOT_POSITIVE_DEFINITE = 1
 NOT_FINITE = 2
 
 # compile-time constants (tests/aero/test_filter_kernels.py checks them against kinematics)
-_NX = 26            # states (kinematics.STATE_NAMES)
+_NX = 28            # states (kinematics.STATE_NAMES)
 _NZ = 12            # measurements (kinematics.MEASUREMENT_NAMES)
 _PSI_MEAS = 11      # row of the heading in the measurement vector (kinematics.PSI_MEAS)
 _TWO_PI = 2.0 * math.pi
@@ -237,7 +237,8 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
     @_jit
     def _measure(x, arm, h, H, jacobian, C, dC):
         """Predicted measurements into ``h`` (12,) and, if ``jacobian``, their Jacobian into
-        ``H`` (12, 26) (kinematics.measure). ``arm`` (6,): omega x r at the vanes."""
+        ``H`` (12, 28) (kinematics.measure). ``arm`` (9,): omega x r at the vanes' given
+        positions, then (0, r, -q)."""
         px, py, pz = x[0], x[1], x[2]
         uu, vv, ww = x[3], x[4], x[5]
         phi, theta, psi = x[6], x[7], x[8]
@@ -254,7 +255,10 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         ua = uu - (C[0, 0] * wn + C[1, 0] * we + C[2, 0] * wd)
         va = vv - (C[0, 1] * wn + C[1, 1] * we + C[2, 1] * wd)
         wa = ww - (C[0, 2] * wn + C[1, 2] * we + C[2, 2] * wd)
-        a0, a2, b0, b1, b2 = arm[0], arm[2], arm[3], arm[4], arm[5]
+        xa, xb = x[26], x[27]
+        d0, d1, d2 = arm[6], arm[7], arm[8]
+        a0, a2 = arm[0] + xa * d0, arm[2] + xa * d2
+        b0, b1, b2 = arm[3] + xb * d0, arm[4] + xb * d1, arm[5] + xb * d2
         V = math.sqrt(ua * ua + va * va + wa * wa)
         ul, wl = ua + a0, wa + a2
         uw2a = ul * ul + wl * wl
@@ -334,6 +338,8 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         H[8, 16] = 1.0
         H[7, 21] = alpha_l
         H[8, 22] = beta_l
+        H[7, 26] = g10 * d0 + g11 * d1 + g12 * d2
+        H[8, 27] = g20 * d0 + g21 * d1 + g22 * d2
         H[9, 6] = H[10, 7] = H[11, 8] = 1.0
 
     @_jit
@@ -395,9 +401,9 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
 
         Parameters
         ----------
-        x0 : (26,) ndarray
+        x0 : (28,) ndarray
             Initial state.
-        P0 : (26, 26) ndarray
+        P0 : (28, 28) ndarray
             Its covariance.
         u : (n, 6) ndarray
             IMU inputs.
@@ -413,13 +419,13 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
             Measurement-noise variances.
         var_u : (6,) ndarray
             IMU noise variances.
-        q : (26,) ndarray
+        q : (28,) ndarray
             Process-noise variances.
         tol : float
             Stopping tolerance of the iterated update (measurement-noise sigmas).
         max_iter : int
-        arm : (n, 6) ndarray
-            ``omega x r`` of the vanes (zeros: at the c.g.).
+        arm : (n, 9) ndarray
+            ``omega x r`` of the vanes and ``(0, r, -q)`` (zeros: at the c.g.).
         specific_force : bool
         gust_decay : float
         x_filt, P_filt, x_pred, P_pred, Fs, innov, innov_var, iters
@@ -457,7 +463,7 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
         noise_sd = np.empty(_NZ)
         L = np.zeros((_NZ, _NZ))
         RHS = np.empty((_NZ, _NX + 1))
-        # buffers of the selected rows' products, reshaped to (26, m), (m, m), (m, 26)
+        # buffers of the selected rows' products, reshaped to (NX, m), (m, m), (m, NX)
         hs_buf = np.empty(_NZ * _NX)
         pht_buf = np.empty(_NX * _NZ)
         s_buf = np.empty(_NZ * _NZ)
@@ -598,12 +604,12 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
 
     @_jit
     def smooth_pass(xf, Pf, xp, Pp, F, xs):
-        """RTS smoother of the means into ``xs`` (n, 26) (iekf.rts_smooth).
+        """RTS smoother of the means into ``xs`` (n, 28) (iekf.rts_smooth).
 
         ``x_s[k] = x_f[k] + C_k (x_s[k+1] - x_p[k+1])`` with ``C_k = (P_p[k+1]^-1 F_k
         P_f[k])'``, the gain applied to the vector: ``P_f[k]' F_k' P_p[k+1]'^-1 (x_s[k+1] -
         x_p[k+1])``, one LAPACK solve (LU) with one right-hand side per sample (the
-        reference's 26 right-hand sides and products cost twice as much). Raises
+        reference's NX right-hand sides and products cost twice as much). Raises
         ``LinAlgError`` on a singular ``P_p``, as the reference's batched solve does.
         """
         n = xf.shape[0]
@@ -630,7 +636,7 @@ if HAVE_NUMBA:  # pragma: no cover - exercised where numba is installed
 
     @_jit
     def measure_series(xs, arm, out):
-        """Predicted measurements of every state ``xs`` (n, 26) into ``out`` (n, 12)."""
+        """Predicted measurements of every state ``xs`` (n, 28) into ``out`` (n, 12)."""
         C = np.empty((3, 3))
         dC = np.empty((3, 3, 3))
         H = np.empty((1, 1))

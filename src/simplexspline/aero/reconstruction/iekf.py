@@ -64,9 +64,9 @@ class StateEstimate:
 
     Attributes
     ----------
-    x : (26,) ndarray
+    x : (28,) ndarray
         Mean (:data:`~simplexspline.aero.reconstruction.kinematics.STATE_NAMES`).
-    P : (26, 26) ndarray
+    P : (28, 28) ndarray
         Covariance.
     """
 
@@ -83,7 +83,7 @@ class FilterNoise:
     input_std : (6,) ndarray
         IMU white-noise standard deviations per sample (``ax, ay, az`` [m/s^2], ``p, q, r``
         [rad/s]).
-    process_var : (26,) ndarray
+    process_var : (28,) ndarray
         Additional process-noise variances per step (model errors).
     measurement_std : (12,) ndarray
         Measurement-noise standard deviations.
@@ -141,8 +141,8 @@ def _iterated_update(x: np.ndarray, P: np.ndarray, meas: _Measured, H: np.ndarra
                      iteration: IteratedUpdate, sample: int, arm: np.ndarray | None = None):
     """Iterated measurement update of the prediction ``(x, P)`` (see the module docstring).
 
-    ``H`` (12, 26) is scratch space for the measurement Jacobian. Returns the updated
-    state (26,) and covariance (26, 26), the number of gains computed, the innovation
+    ``H`` (12, 28) is scratch space for the measurement Jacobian. Returns the updated
+    state (28,) and covariance (28, 28), the number of gains computed, the innovation
     of the prediction with its predicted variances ((m,) each) and its log-likelihood.
     """
     sel, R, psi_j = meas.sel, meas.R, meas.psi_j
@@ -208,7 +208,7 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
     Parameters
     ----------
     initial : StateEstimate
-        Initial state estimate (26,) and its covariance (26, 26).
+        Initial state estimate (28,) and its covariance (28, 28).
     u : (n, 6) ndarray
         Measured IMU inputs (``ax, ay, az`` [m/s^2], ``p, q, r`` [rad/s]); finite.
     z : (n, 12) ndarray
@@ -223,9 +223,10 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
         IMU, process and measurement noise.
     iteration : IteratedUpdate
         Stopping rule of the iterated measurement update.
-    arm : (n, 6) ndarray, optional
-        Per sample, ``omega x r`` [m/s] of the alpha and the beta vane (see
-        :func:`~simplexspline.aero.reconstruction.kinematics.measure`); None: at the c.g.
+    arm : (n, 9) ndarray, optional
+        Per sample, ``omega x r`` [m/s] of the alpha and the beta vane and ``(0, r, -q)``
+        (see :func:`~simplexspline.aero.reconstruction.kinematics.measure`); None: at the
+        c.g.
     specific_force : bool
         False without accelerometers (body velocities as a random walk; ``u[:, :3]`` unused).
     gust_decay : float
@@ -238,9 +239,9 @@ def run_filter(initial: StateEstimate, u: np.ndarray, z: np.ndarray, dt: float,
     Returns
     -------
     dict
-        ``x_filt`` (n, 26), ``P_filt`` (n, 26, 26), ``x_pred`` (n, 26) and ``P_pred``
-        (n, 26, 26) (row k is the prediction of sample k; row 0 is the prior), ``F``
-        (n, 26, 26) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
+        ``x_filt`` (n, 28), ``P_filt`` (n, 28, 28), ``x_pred`` (n, 28) and ``P_pred``
+        (n, 28, 28) (row k is the prediction of sample k; row 0 is the prior), ``F``
+        (n, 28, 28) (row k maps sample k to k + 1), ``innov`` (n, 12) innovations of the
         prediction (NaN where not measured), ``innov_var`` (n, 12) their predicted variances,
         ``iterations`` (n,) int, ``loglik`` (float) the log-likelihood of the measurements.
 
@@ -309,7 +310,7 @@ def _run_filter_compiled(initial: StateEstimate, u, z, dt, g, earth: EarthModel,
            "innov_var": np.full((n, NZ), np.nan), "iterations": np.zeros(n, dtype=np.int64)}
     params = np.array([earth.rn, earth.rm, earth.tan_lat, *earth.wie, float(earth.rotation),
                        float(second_order)])
-    arm = np.zeros((n, 6)) if arm is None else np.ascontiguousarray(arm, dtype=float)
+    arm = np.zeros((n, 9)) if arm is None else np.ascontiguousarray(arm, dtype=float)
     status, _, loglik = filter_kernels.filter_pass(
         np.array(initial.x, dtype=float), np.array(initial.P, dtype=float),
         np.ascontiguousarray(u, dtype=float), np.ascontiguousarray(z, dtype=float),
@@ -342,8 +343,8 @@ def rts_smooth(out: dict, *, covariance: bool = False) -> tuple[np.ndarray, np.n
 
     Returns
     -------
-    x_s : (n, 26) ndarray
-    var_s : (n, 26) ndarray or None
+    x_s : (n, 28) ndarray
+    var_s : (n, 28) ndarray or None
         Smoothed variances, when ``covariance``.
     """
     xf, Pf, xp, Pp, F = out["x_filt"], out["P_filt"], out["x_pred"], out["P_pred"], out["F"]

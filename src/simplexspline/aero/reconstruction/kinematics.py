@@ -17,7 +17,7 @@ about 0.03 m/s^2, the size of an accelerometer bias: leaving them out would bias
 estimates. In the Jacobians they are treated as known inputs (their state derivatives are
 below 1e-6 of the retained terms).
 
-States (26): ``x, y, z`` [m] NED position from the maneuver's first GPS sample; ``u, v, w``
+States (28): ``x, y, z`` [m] NED position from the maneuver's first GPS sample; ``u, v, w``
 [m/s] (Earth-relative); ``phi, theta, psi`` [rad] (psi is kept unwrapped); accelerometer
 biases ``bax, bay, baz`` [m/s^2]; gyro biases ``bp, bq, br`` [rad/s]; air-data errors
 ``balpha``, ``bbeta`` [rad] (vane offsets) and ``btas`` [m/s] (airspeed bias); the steady
@@ -25,7 +25,9 @@ wind ``wind_n, wind_e, wind_d`` [m/s] (NED velocity of the air mass, constant or
 walk); vane scale-factor errors ``kalpha, kbeta`` [-]; the gusts ``gust_n, gust_e,
 gust_d`` [m/s] (turbulence on top of the steady wind: a zero-mean first-order Gauss-Markov
 process, ``g[k+1] = a g[k] + w``, whose decay ``a`` the caller gives; see
-:mod:`~simplexspline.aero.reconstruction.gusts`). The air moves at wind + gust. Which
+:mod:`~simplexspline.aero.reconstruction.gusts`). The vanes' position errors along the body x axis
+``xalpha, xbeta`` [m] (a vane ahead of where the sensor geometry puts it reads the pitch
+rate's and yaw rate's induced angles ``-q dx / V`` and ``r dx / V`` on top). The air moves at wind + gust. Which
 states are estimated depends on the channels present (the driver holds the unobservable
 ones at their prior).
 
@@ -51,7 +53,7 @@ import numpy as np
 
 __all__ = [
     "STATE_NAMES", "INPUT_NAMES", "MEASUREMENT_NAMES", "BIAS_STATES", "WIND_STATES",
-    "SCALE_STATES", "GUST_STATES", "GUST", "EarthModel",
+    "SCALE_STATES", "POSITION_STATES", "GUST_STATES", "GUST", "EarthModel",
     "euler_rates", "normal_gravity", "propagate", "measure", "step_mean",
 ]
 
@@ -60,6 +62,7 @@ STATE_NAMES: tuple[str, ...] = (
     "x", "y", "z", "u", "v", "w", "phi", "theta", "psi",
     "bax", "bay", "baz", "bp", "bq", "br", "balpha", "bbeta", "btas",
     "wind_n", "wind_e", "wind_d", "kalpha", "kbeta", "gust_n", "gust_e", "gust_d",
+    "xalpha", "xbeta",
 )
 #: IMU inputs, in order (schema columns).
 INPUT_NAMES: tuple[str, ...] = ("ax", "ay", "az", "p", "q", "r")
@@ -77,6 +80,9 @@ BIAS_STATES: dict[str, str] = {
 WIND_STATES: tuple[str, ...] = ("wind_n", "wind_e", "wind_d")
 #: Vane scale-factor errors (the vane reads (1 + k) times the local flow angle) [-].
 SCALE_STATES: dict[str, str] = {"kalpha": "alpha", "kbeta": "beta"}
+#: Vane position errors along the body x axis [m] (the vane sits that far ahead of the
+#: position the sensor geometry gives).
+POSITION_STATES: dict[str, str] = {"xalpha": "alpha", "xbeta": "beta"}
 #: Gust states (NED, turbulence on top of the steady wind) [m/s].
 GUST_STATES: tuple[str, ...] = ("gust_n", "gust_e", "gust_d")
 #: Slice of the gust states in the state vector.
@@ -236,7 +242,7 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
 
     Parameters
     ----------
-    x : (26,) ndarray
+    x : (28,) ndarray
         State at step k.
     u : (6,) ndarray
         Measured IMU inputs over the step: specific force ``ax, ay, az`` [m/s^2], rates
@@ -248,7 +254,7 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
     g : float
         Gravity at this altitude [m/s^2].
     earth : EarthModel
-    F : (26, 26) ndarray
+    F : (28, 28) ndarray
         Output: the transition matrix I + dt * df/dx. Only the model's non-trivial
         entries are written: pass the identity (or a matrix returned by an earlier call
         with the same ``specific_force``) so that every other entry is already that of the
@@ -268,7 +274,7 @@ def propagate(x: np.ndarray, u: np.ndarray, dt: float, g: float, earth: EarthMod
 
     Returns
     -------
-    (26,) ndarray
+    (28,) ndarray
         State at step k + 1.
     """
     (_, _, _, uu, vv, ww, phi, theta, psi, bax, bay, baz, bp, bq, br) = x[:15].tolist()
@@ -395,13 +401,15 @@ def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
 
     Parameters
     ----------
-    x : (26,) ndarray
+    x : (28,) ndarray
         State.
-    H : (12, 26) ndarray or None
+    H : (12, 28) ndarray or None
         Output: d h / d x (overwritten in place); None to skip the Jacobian.
-    arm : (6,) ndarray, optional
-        ``omega x r`` [m/s] of the alpha vane (first three) and of the beta vane (last
-        three) at this sample, body axes; None: vanes at the c.g.
+    arm : (9,) ndarray, optional
+        ``omega x r`` [m/s] of the alpha vane (first three) and of the beta vane (next
+        three) at the positions the sensor geometry gives, and ``omega x e_x = (0, r, -q)``
+        [rad/s] (last three: what a vane's position error along x adds per metre) at this
+        sample, body axes; None: vanes at the c.g. and no rates.
 
     Returns
     -------
@@ -410,7 +418,7 @@ def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
         ``beta``, ``phi``, ``theta``, ``psi`` [rad] (psi unwrapped, as the state).
     """
     (px, py, pz, uu, vv, ww, phi, theta, psi, _, _, _, _, _, _, ba, bb, bv,
-     wn, we, wd, ka, kb, gn, ge, gd) = x.tolist()
+     wn, we, wd, ka, kb, gn, ge, gd, xa, xb) = x.tolist()
     wn, we, wd = wn + gn, we + ge, wd + gd      # the air moves at wind + gust
     C = _dcm(phi, theta, psi)
     cf, sf = math.cos(phi), math.sin(phi)
@@ -424,9 +432,11 @@ def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
     va = vv - (C[0][1] * wn + C[1][1] * we + C[2][1] * wd)
     wa = ww - (C[0][2] * wn + C[1][2] * we + C[2][2] * wd)
     if arm is None:
-        a0 = a2 = b0 = b1 = b2 = 0.0
+        a0 = a2 = b0 = b1 = b2 = d0 = d1 = d2 = 0.0
     else:
-        a0, _, a2, b0, b1, b2 = arm.tolist()      # v at the alpha vane does not matter
+        a0, _, a2, b0, b1, b2, d0, d1, d2 = arm.tolist()  # v at the alpha vane: no matter
+        a0, a2 = a0 + xa * d0, a2 + xa * d2
+        b0, b1, b2 = b0 + xb * d0, b1 + xb * d1, b2 + xb * d2
     V = math.sqrt(ua * ua + va * va + wa * wa)
     ul, wl = ua + a0, wa + a2
     uw2a = ul * ul + wl * wl
@@ -475,5 +485,7 @@ def measure(x: np.ndarray, H: np.ndarray | None, arm: np.ndarray | None = None
     H[8, 16] = 1.0
     H[7, 21] = alpha_l
     H[8, 22] = beta_l
+    H[7, 26] = grads[1] @ (d0, d1, d2)
+    H[8, 27] = grads[2] @ (d0, d1, d2)
     H[9, 6] = H[10, 7] = H[11, 8] = 1.0
     return h

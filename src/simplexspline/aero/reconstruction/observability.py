@@ -47,7 +47,8 @@ import numpy as np
 
 from simplexspline.aero.reconstruction.kinematics import euler_rates
 
-__all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "channels_present",
+__all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "POSITION_GIVEN",
+           "channels_present",
            "heading_excursion", "observability_plan", "variance_reduction"]
 
 GPS_VELOCITY = ("vn_gps", "ve_gps", "vd_gps")
@@ -89,7 +90,13 @@ def channels_present(task: Mapping) -> dict:
     }
 
 
-def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True) -> dict:
+#: Why a vane's position error is held: the sensor geometry gives the position.
+POSITION_GIVEN = "given in the sensor geometry: held there"
+
+
+def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True,
+                       estimate_vane_position: bool = True,
+                       positions_given: tuple = ()) -> dict:
     """The states to estimate and to hold, with the reasons.
 
     Parameters
@@ -98,6 +105,11 @@ def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True) ->
         :func:`channels_present`.
     estimate_vane_scale : bool
         Estimate the vane scale-factor errors where observable (with GPS).
+    estimate_vane_position : bool
+        Estimate the vanes' position errors along x where observable (with GPS).
+    positions_given : tuple of str
+        The vanes (``alpha_vane``, ``beta_vane``) whose position the sensor geometry gives:
+        held there.
 
     Returns
     -------
@@ -117,15 +129,23 @@ def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True) ->
         for s in _AIR_DATA_ERRORS:
             held[s] = why + ": held at zero (the sensor's calibration error stays in the data)"
         held["kalpha"] = held["kbeta"] = why + ": held at zero"
+        held["xalpha"] = held["xbeta"] = why + ": held at the given position"
     if gps and not present.get("gps_vertical", True):
         held["wind_d"] = ("unobservable without a vertical GPS channel (z_gps or vd_gps): "
                           "held at zero")
     if not estimate_vane_scale:
         held.setdefault("kalpha", "not requested (estimate_vane_scale=False)")
         held.setdefault("kbeta", "not requested (estimate_vane_scale=False)")
+    for state, vane in (("xalpha", "alpha_vane"), ("xbeta", "beta_vane")):
+        if vane in positions_given:
+            held.setdefault(state, POSITION_GIVEN)
+        elif not estimate_vane_position:
+            held.setdefault(state, "not requested (estimate_vane_position=False): held at "
+                                   "the given position")
     if not present["beta"]:
         held["bbeta"] = "no sideslip vane"
         held["kbeta"] = "no sideslip vane"
+        held["xbeta"] = "no sideslip vane"
         if not gps and present["accelerometers"]:
             held["bay"] = ("unobservable without GPS and sideslip vane (it trades against "
                            "the sideslip): held at zero")

@@ -35,9 +35,12 @@ from simplexspline.aero.data.flight_data import (
 )
 from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
-from simplexspline.aero.reconstruction.campaign_calibration import (campaign_priors,
+from simplexspline.aero.reconstruction.campaign_calibration import (FALSE_ALARM,
+                                                                     CombinedEstimate,
+                                                                     campaign_priors,
                                                                      campaign_wind,
                                                                      combine_campaign,
+                                                                     combine_joint,
                                                                      lone_in_gusts,
                                                                      prior_conflicts)
 from simplexspline.aero.reconstruction.iekf import (
@@ -48,11 +51,13 @@ from simplexspline.aero.reconstruction.gusts import (
     GustChoice, choose_gusts, gust_process, innovation_excess,
 )
 from simplexspline.aero.reconstruction.kinematics import (
-    BIAS_STATES, GUST, INPUT_NAMES, MEASUREMENT_NAMES, NX, SCALE_STATES, STATE_NAMES,
+    BIAS_STATES, GUST, INPUT_NAMES, MEASUREMENT_NAMES, NX, POSITION_STATES, SCALE_STATES,
+    STATE_NAMES,
     WIND_STATES, EarthModel, measure, step_mean,
 )
 from simplexspline.aero.reconstruction.observability import (
-    channels_present, heading_excursion, observability_plan, variance_reduction,
+    POSITION_GIVEN, channels_present, heading_excursion, observability_plan,
+    variance_reduction,
 )
 from simplexspline.aero.reconstruction.sensor_corrections import (
     estimate_lag, rotation_velocity, specific_force_at_cg, undo_lag,
@@ -70,7 +75,16 @@ __all__ = ["ReconstructionSettings", "Reconstruction", "reconstruct", "reconstru
 #: Control-surface position columns smoothed when ``smooth_controls`` (those present).
 CONTROL_COLUMNS = ("de", "da", "dr", "dte", "flap")
 #: Constant air-data errors estimated for the whole campaign (``air_data_calibration``).
-CALIBRATION_STATES = ("btas", "balpha", "bbeta", "kalpha", "kbeta")
+CALIBRATION_STATES = ("btas", "balpha", "bbeta", "kalpha", "kbeta", "xalpha", "xbeta")
+#: Each vane's offset, scale error and position error along x, combined jointly by the
+#: campaign calibration
+#: (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_joint`).
+VANE_STATES = {"alpha": ("balpha", "kalpha", "xalpha"), "beta": ("bbeta", "kbeta", "xbeta")}
+#: The constants that straight maneuvers without a heading channel give the campaign too:
+#: the angle-of-attack vane's lie in the vertical plane, which the crosswind held at zero
+#: does not reach (the airspeed bias trades against the wind along the track, the
+#: sideslip vane's against the crosswind, the yaw-gyro bias against the heading).
+STRAIGHT_CALIBRATION_STATES = ("balpha", "kalpha", "xalpha")
 #: The campaign's wind starts a straight maneuver without a heading channel only when its
 #: sigma is at most this share of the crosswind sigma the priors give
 #: (:func:`_crosswind_prior_sd`): turns that disagree leave the crosswind held at zero.
@@ -84,6 +98,12 @@ IMU_STATES = ("bax", "bay", "baz", "bp", "bq", "br")
 #: and sideslip that the gust model does not follow correlates with the angles themselves).
 GUST_HELD_SCALE = ("not estimated in turbulence (gusts in this maneuver): confounded with "
                    "the gusts; held at the given calibration")
+#: Why the vanes' positions are not estimated in a maneuver with gusts: the gusts' angles
+#: drive the pitch and yaw rates, so the rate-induced angles of a vane ahead of the c.g.
+#: correlate with the part of the gusts the gust model does not follow (the same reason as
+#: :data:`GUST_HELD_SCALE`).
+GUST_HELD_POSITION = ("not estimated in turbulence (gusts in this maneuver): confounded "
+                      "with the gusts; held at the given position or the campaign's")
 #: Why the campaign calibration leaves out an airspeed bias (or sideslip-vane offset) that
 #: one maneuver with gusts alone observes (:data:`LONE_IN_GUSTS_STATES`): measured on a
 #: simulated A-4 sortie (10 Hz, light turbulence, no heading), its two turns gave airspeed
@@ -128,6 +148,12 @@ GUST_HELD_UNCALIBRATED = ("not estimated in turbulence: the campaign calibration
                           "determine it (sigma above half the prior, or one turbulent "
                           "maneuver alone); held at zero (the sensor's calibration error "
                           "stays in the data)")
+#: Why a vane's position is not estimated when a channel's lag remains.
+POSITION_AFTER_LAGS = ("not estimated: a lag remains in a channel (not undone, or still "
+                       "significant), and the filter would take it for the vane's position; "
+                       "held at the given position")
+#: Why a maneuver holds a constant of the campaign's air-data calibration.
+CAMPAIGN_HELD = "campaign air-data calibration (held at its estimate)"
 #: Channels a maneuver cannot be reconstructed without (at least one valid sample each).
 ESSENTIAL_MEASUREMENTS = ("tas", "alpha", "phi", "theta")
 
@@ -171,7 +197,8 @@ def _latitude(settings, meta: Mapping) -> tuple:
 def _default_prior() -> dict:
     return {"position": 5.0, "velocity": 1.0, "attitude": 0.01, "accel_bias": 0.1,
             "gyro_bias": 2e-3, "vane_bias": 0.02, "tas_bias": 2.0, "wind": 10.0,
-            "vertical_wind": 1.0, "vane_scale": 0.05, "heading": 0.3}
+            "vertical_wind": 1.0, "vane_scale": 0.05, "heading": 0.3,
+            "vane_position": 5.0}
 
 
 @dataclass(frozen=True)
@@ -246,6 +273,13 @@ class ReconstructionSettings:
         length over the airspeed); one value fixes it.
     estimate_vane_scale : bool
         Estimate the vanes' scale-factor errors (only with GPS).
+    estimate_vane_position : bool
+        Estimate each vane's position error along the body x axis (states ``xalpha``,
+        ``xbeta`` [m], prior sigma ``prior['vane_position']``) where the sensor geometry
+        does not give the vane's position: a vane ahead of the c.g. reads the pitch rate's
+        induced angle of attack ``-q x / V`` and the yaw rate's sideslip ``r x / V``.
+        Combined over the campaign with the vane's offset and scale error
+        (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_joint`).
     beta_pseudo_std : float
         Without a sideslip vane and without GPS: the sigma [rad] of the zero-mean
         pseudo-measurement of beta that keeps the dead-reckoned sideslip from drifting.
@@ -338,6 +372,7 @@ class ReconstructionSettings:
     gust_candidates: tuple = (0.3, 1.0, 3.0)
     gust_lengths_m: tuple = (100.0, 300.0, 1000.0)
     estimate_vane_scale: bool = True
+    estimate_vane_position: bool = True
     beta_pseudo_std: float = 0.05
     velocity_random_walk: float = 5.0
     estimate_lags: bool = True
@@ -548,18 +583,21 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         # 100 Hz), or as the mean of the step's two samples
         if mode == "trapezoid":
             u[:-1, 3:] = 0.5 * (rates[:-1] + rates[1:])
+    # omega x r at each vane's given position, then omega x e_x: what a position error
+    # along x adds per metre (the states xalpha, xbeta)
     arm = np.hstack([rotation_velocity(rates, np.asarray(geo.get(k, (0.0, 0.0, 0.0)),
                                                          dtype=float) - cg)
-                     for k in ("alpha_vane_position_m", "beta_vane_position_m")])
-    if not np.any(arm):
-        arm = None
-    plan = observability_plan(present, estimate_vane_scale=s["estimate_vane_scale"])
+                     for k in ("alpha_vane_position_m", "beta_vane_position_m")]
+                    + [rotation_velocity(rates, np.array((1.0, 0.0, 0.0)))])
+    plan = observability_plan(present, estimate_vane_scale=s["estimate_vane_scale"],
+                              estimate_vane_position=s["estimate_vane_position"],
+                              positions_given=geo.get("vane_positions_given", ()))
     # the campaign's air-data calibration (from its GPS maneuvers) also serves the
     # maneuvers without GPS, which cannot observe it themselves
     calibration = {k: v for k, v in (task.get("calibration") or {}).items()
                    if k not in plan["held"] or plan["held"][k].startswith("unobservable")}
     for k in calibration:
-        plan["held"][k] = "campaign air-data calibration (held at its estimate)"
+        plan["held"][k] = CAMPAIGN_HELD
     z = np.full((n, len(MEASUREMENT_NAMES)), np.nan)
     for j, c in enumerate(MEASUREMENT_NAMES):
         if c in task:
@@ -673,6 +711,7 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
 
     air_data = [c for c in ("tas", "alpha", "beta") if c != "beta" or not plan["beta_pseudo"]]
     gust_held = {k: GUST_HELD_SCALE for k in SCALE_STATES if k not in plan["held"]}
+    gust_held.update({k: GUST_HELD_POSITION for k in POSITION_STATES if k not in plan["held"]})
     straight = heading_excursion(task) < MIN_HEADING_CHANGE
     if straight:
         gust_held.update({k: GUST_HELD_STRAIGHT for k in ("btas", "bbeta")
@@ -725,13 +764,24 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
                 float(math.sqrt(P[STATE_NAMES.index(k), STATE_NAMES.index(k)])),
                 float(math.sqrt(initial.P[STATE_NAMES.index(k), STATE_NAMES.index(k)])))
             for k in CALIBRATION_STATES + IMU_STATES if k not in plan["held"]}
+        # a vane's constants together (a maneuver at one angle of attack observes the
+        # offset plus the scale error times that angle only: combine_joint)
+        joint = {}
+        for vane, group in VANE_STATES.items():
+            free = tuple(k for k in group if k in estimates)
+            if len(free) > 1:
+                i = [STATE_NAMES.index(k) for k in free]
+                joint[vane] = (free, out["x_filt"][-1, i].astype(float),
+                               P[np.ix_(i, i)].astype(float),
+                               np.sqrt(np.diag(initial.P)[i]).astype(float))
         # a turn without a heading channel observes the wind (campaign_wind)
         wind = None
         if triangle is not None and triangle.heading_change >= MIN_HEADING_CHANGE:
             wind = tuple((float(out["x_filt"][-1, 18 + j]), float(math.sqrt(P[18 + j, 18 + j])),
                           float(s["prior"]["wind"])) for j in range(2))
         return {"maneuver": man, "ok": True, "gusts": gusts.std, "wind": wind,
-                "altitude": float(np.nanmedian(h)), "calibration": estimates}
+                "altitude": float(np.nanmedian(h)), "calibration": estimates,
+                "joint": joint}
     innov = out["innov"]
     stats = innovation_statistics(innov, out["innov_var"])
     if plan["beta_pseudo"]:
@@ -756,7 +806,8 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     ratio = variance_reduction(np.sqrt(own_var), sd_end)
     biases = {}
     for name, ch in {**BIAS_STATES, **{w: w for w in WIND_STATES},
-                     **{k: k for k in SCALE_STATES}}.items():
+                     **{k: k for k in SCALE_STATES},
+                     **{k: k for k in POSITION_STATES}}.items():
         i = STATE_NAMES.index(name)
         biases[ch] = (float(xs[-1, i]), float(calibration[name][1] if name in calibration
                                               else sd_end[i]))
@@ -769,7 +820,8 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         for j, w in enumerate(WIND_STATES[:2]):
             biases[w] = (biases[w][0], float(math.sqrt(cov[j, j])))
     held = {BIAS_STATES.get(k, k): v for k, v in plan["held"].items()}
-    weak = sorted(BIAS_STATES.get(k, k) for k in STATE_NAMES[9:GUST.start]
+    weak = sorted(BIAS_STATES.get(k, k) for k in (*STATE_NAMES[9:GUST.start],
+                                                  *POSITION_STATES)
                   if k not in plan["held"] and ratio[STATE_NAMES.index(k)] > 0.5)
     # air-relative velocity at the c.g.: V_b - C_bn W
     air = _air_velocity(xs)
@@ -821,18 +873,39 @@ def _air_velocity(xs: np.ndarray) -> np.ndarray:
 
 #: Channels whose time lag is estimated against the reconstruction (diagnostic).
 _LAG_CHANNELS = ("tas", "alpha", "beta", "phi", "theta")
+#: The position state of each vane channel.
+_POSITION_OF = {ch: k for k, ch in POSITION_STATES.items()}
 
 
-def _lag_estimates(xs: np.ndarray, z: np.ndarray, arm, dt: float, plan: Mapping) -> dict:
-    """Per channel: (lag, sigma) [s] of the measurement against the smoothed states."""
+def _predicted(xs: np.ndarray, arm) -> np.ndarray:
+    """Predicted measurements of every smoothed state, (n, 12)."""
     if filter_kernels.HAVE_NUMBA:
         hx = np.empty((xs.shape[0], len(MEASUREMENT_NAMES)))
         filter_kernels.measure_series(
-            np.ascontiguousarray(xs), np.zeros((xs.shape[0], 6)) if arm is None
+            np.ascontiguousarray(xs), np.zeros((xs.shape[0], 9)) if arm is None
             else np.ascontiguousarray(arm, dtype=float), hx)
-    else:
-        hx = np.array([measure(xs[k], None, None if arm is None else arm[k])
-                       for k in range(xs.shape[0])])
+        return hx
+    return np.array([measure(xs[k], None, None if arm is None else arm[k])
+                     for k in range(xs.shape[0])])
+
+
+def _lag_estimates(xs: np.ndarray, z: np.ndarray, arm, dt: float, plan: Mapping) -> dict:
+    """Per channel: (lag, sigma) [s] of the measurement against the smoothed states.
+
+    A vane whose position the sensor geometry does not give is compared with the
+    reconstruction at the position it gives (or its estimate's start), the position's
+    effect fitted with the lag
+    (:func:`~simplexspline.aero.reconstruction.sensor_corrections.estimate_lag`)."""
+    hx = _predicted(xs, arm)
+    # a position the sensor geometry does not give: fitted with the lag
+    free = [k for k in POSITION_STATES if plan["held"].get(k) != POSITION_GIVEN]
+    given = ones = None
+    if free:
+        at = xs.copy()
+        at[:, [STATE_NAMES.index(k) for k in free]] = 0.0
+        given = _predicted(at, arm)
+        at[:, [STATE_NAMES.index(k) for k in free]] = 1.0
+        ones = _predicted(at, arm) - given        # per metre of position error
     out = {}
     for c in _LAG_CHANNELS:
         if c == "beta" and plan["beta_pseudo"]:
@@ -840,7 +913,11 @@ def _lag_estimates(xs: np.ndarray, z: np.ndarray, arm, dt: float, plan: Mapping)
         j = MEASUREMENT_NAMES.index(c)
         if not np.isfinite(z[:, j]).any():
             continue
-        lag, sd = estimate_lag(z[:, j] - hx[:, j], np.gradient(hx[:, j], dt))
+        if given is not None and _POSITION_OF.get(c) in free:
+            lag, sd = estimate_lag(z[:, j] - given[:, j], np.gradient(given[:, j], dt),
+                                   ones[:, j])
+        else:
+            lag, sd = estimate_lag(z[:, j] - hx[:, j], np.gradient(hx[:, j], dt))
         if math.isfinite(lag):
             out[c] = (lag, sd)
     return out
@@ -1035,6 +1112,8 @@ def initial_state(z: np.ndarray, prior: Mapping, *, present: Mapping | None = No
         sd[18:20] = wind_prior[2]
     sd[21:23] = prior["vane_scale"]
     sd[GUST] = 1e-8                  # gusts start held (the driver sets their variance)
+    for name in POSITION_STATES:
+        sd[STATE_NAMES.index(name)] = prior["vane_position"]
     for name in held:
         sd[STATE_NAMES.index(name)] = 1e-8
     return StateEstimate(x0, np.diag(sd ** 2))
@@ -1243,7 +1322,8 @@ class Reconstruction:
         if self.maneuvers:
             bt = self.bias_table()
             lines.append("estimated biases (median over maneuvers, median sigma):")
-            for ch in (*BIAS_STATES.values(), *WIND_STATES, *SCALE_STATES):
+            for ch in (*BIAS_STATES.values(), *WIND_STATES, *SCALE_STATES,
+                       *POSITION_STATES):
                 lines.append(f"  {ch:>6s}: {bt[ch].median(): .4g} +- "
                              f"{bt[ch + '_sigma'].median():.2g}")
             lines.append("innovations (median over maneuvers): normalised mean, std "
@@ -1340,7 +1420,7 @@ def _geometry(meta: Mapping) -> dict:
             "beta_vane_scale": geo.beta_vane.scale,
             "beta_vane_offset_rad": geo.beta_vane.offset_rad,
             "imu_position_m": geo.imu_position_m, "lag_s": dict(geo.lag_s),
-            "given": list(geo.given)}
+            "given": list(geo.given), "vane_positions_given": list(geo.positions_given)}
 
 
 def _tasks(df, geometry: dict | None = None) -> list[dict]:
@@ -1480,21 +1560,47 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         return {}, {}, {}, {}, []
     gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
     # without a heading channel a straight maneuver trades its heading against a crosswind
-    # and the air-data errors with them (wind_triangle): calibrate on the turns if any
-    turning = [t for t in gps if heading_excursion(t) >= MIN_HEADING_CHANGE]
-    if turning and not all(channels_present(t)["psi"] for t in gps):
-        gps = turning
+    # and the air-data errors with them (wind_triangle): calibrate on the turns if any,
+    # except the angle-of-attack vane, which the straight maneuvers observe as well
+    turning = {int(t["maneuver"]) for t in gps if heading_excursion(t) >= MIN_HEADING_CHANGE}
+    if not turning or all(channels_present(t)["psi"] for t in gps):
+        turning = {int(t["maneuver"]) for t in gps}
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
     results = _run_all(gps, s, workers, progress)
 
+    def used(r: Mapping, k: str) -> bool:
+        return r["ok"] and (r["maneuver"] in turning or k in STRAIGHT_CALIBRATION_STATES)
+
     def estimates(states) -> dict:
         return {k: [(*r["calibration"][k], r["maneuver"]) for r in results
-                    if r["ok"] and k in r["calibration"]] for k in states}
+                    if used(r, k) and k in r["calibration"]] for k in states}
 
     out, excluded = {}, {}
     if settings.air_data_calibration == "campaign":
         est = estimates(CALIBRATION_STATES)
         combined, excluded = combine_campaign(est)
+        distrusted = {m for per in excluded.values() for m in per}
+        for vane in VANE_STATES:
+            # the maneuvers that estimate the most of the vane's constants (a maneuver with
+            # gusts holds its scale and position: its offset is conditional on them)
+            have = [r for r in results if r["ok"] and vane in r.get("joint", {})
+                    and r["maneuver"] not in distrusted]
+            if not have:
+                continue
+            group = max((r["joint"][vane][0] for r in have), key=len)
+            joint = combine_joint(
+                [(*r["joint"][vane][1:], r["maneuver"]) for r in have
+                 if r["joint"][vane][0] == group and all(used(r, k) for k in group)],
+                FALSE_ALARM / len(CALIBRATION_STATES))
+            if joint is None:
+                continue
+            for i, k in enumerate(group):
+                combined[k] = CombinedEstimate(float(joint.value[i]), float(joint.sigma()[i]),
+                                               joint.used, {})
+            mine = {r["maneuver"]: r["calibration"] for r in results if r["ok"]}
+            for m, z in joint.excluded.items():
+                for k in group:
+                    excluded.setdefault(k, {})[m] = (*mine[m][k][:2], z)
         gusty = {r["maneuver"] for r in results if r["ok"] and r.get("gusts", 0.0) > 0}
         lone = lone_in_gusts(combined, gusty, LONE_IN_GUSTS_STATES)
         for k, c in combined.items():
@@ -1558,6 +1664,13 @@ def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: _Work
                 task["wind_prior"] = wind
     return (tasks, calibration, excluded, imu,
             _run_all(tasks, settings.to_dict(), workers, progress))
+
+
+def _positions_to_estimate(df, geometry: Mapping) -> bool:
+    """Whether a vane present in the table has no position in the sensor geometry."""
+    given = set(geometry.get("vane_positions_given", ()))
+    return any(vane not in given and col in df.columns and bool(df[col].notna().any())
+               for vane, col in (("alpha_vane", "alpha"), ("beta_vane", "beta")))
 
 
 def _without_attrs(df):
@@ -1627,6 +1740,15 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     geometry = _geometry(meta)
     latitude, latitude_source = _latitude(settings, meta)
     settings = replace(settings, latitude_deg=latitude)
+    # the vanes' positions are estimated in a last pass, after the lags: a filter that
+    # estimates the position of a vane whose channel is late takes the lag for a position
+    # (a 0.08 s angle-of-attack lag at 150 m/s became a vane 16.5 m ahead, the angle of
+    # attack 2.4x worse); the lags are found against a reconstruction at the given
+    # positions, with the positions' effects fitted beside them (_lag_estimates)
+    positions = settings.estimate_vane_position and _positions_to_estimate(df, geometry)
+    final = settings
+    if positions:
+        settings = replace(settings, estimate_vane_position=False)
     with _Workers(int(workers)) as pool:          # shared by all passes
         tasks, calibration, excluded, imu, results = _passes(df, geometry, settings, pool,
                                                                     progress)
@@ -1652,6 +1774,18 @@ def reconstruct(df, metadata: Mapping | None = None, *,
             geometry = {**geometry, "lag_s": {**geometry["lag_s"], **total}}
             tasks, calibration, excluded, imu, results = _passes(df, geometry, settings, pool,
                                                                     progress)
+        # a lag left in a channel (not applied, or still significant) would go into the
+        # position: then the positions stay where the geometry puts them, and the lags
+        # reported are those found against it
+        if positions and not significant_lags([r["lags"] for r in results if r["ok"]], dt):
+            settings = final
+            tasks, calibration, excluded, imu, results = _passes(df, geometry, settings, pool,
+                                                                    progress)
+        elif positions:
+            for r in results:
+                for k in POSITION_STATES:
+                    if r["ok"] and k in r["held"] and r["held"][k].startswith("not requested"):
+                        r["held"][k] = POSITION_AFTER_LAGS
         smoothed = _smooth_controls(df, tasks, pool) if settings.smooth_controls else {}
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
