@@ -220,9 +220,10 @@ class ReconstructionSettings:
         wind of a maneuver with gusts: its mean is small outside convection and mountain
         waves, and with ``wind`` as its prior the gusts' slow part traded against the
         angle-of-attack vane offset: alpha errors of 7.3e-3 rad instead of 1.2e-3 on a
-        3-maneuver f16 campaign in light turbulence), ``vane_scale`` [-] and ``heading``
-        [rad] (of the heading taken from the GPS track when there is no heading channel). Biases
-        start at zero. States the channels cannot observe are held at their prior
+        3-maneuver f16 campaign in light turbulence), ``vane_scale`` [-], ``heading``
+        [rad] (of the heading taken from the GPS track when there is no heading channel) and
+        ``vane_position`` [m] (a vane's position error along x, where the geometry does not
+        give it: 5 m covers a nose boom). Biases start at zero. States the channels cannot observe are held at their prior
         (:mod:`~simplexspline.aero.reconstruction.observability`).
     velocity_model_noise : float
         Extra process noise on u, v, w [m/s^2 per step, 1 sigma] for model errors
