@@ -20,6 +20,7 @@ from simplexspline.aero.reconstruction.campaign_calibration import (
     campaign_wind,
     combine_campaign,
     combine_estimates,
+    JointEstimate,
     combine_joint,
     lone_in_gusts,
     outlier_threshold,
@@ -360,3 +361,15 @@ def test_a_maneuver_whose_vane_disagrees_is_left_out_of_the_joint_combination():
     assert 11 not in combine_joint(est + [blind]).used
     assert combine_joint([blind]) is None
     assert combine_joint([]) is None
+
+
+def test_a_vane_s_constants_are_held_together_once_one_is_determined():
+    """The joint estimate's offset belongs to its scale error: once the campaign
+    determines one constant of a vane it holds every one it knows better than the prior
+    (an undetermined scale error included), and none while it determines none."""
+    prior_sd = np.array([0.02, 0.05, 5.0])
+    joint = JointEstimate(np.array([0.011, 0.035, 5.1]),
+                          np.diag([7e-4, 0.027, 6.0]) ** 2, (1, 2, 3))
+    np.testing.assert_array_equal(joint.determined(prior_sd), [True, True, False])
+    vague = JointEstimate(np.zeros(3), np.diag([0.015, 0.04, 4.0]) ** 2)
+    assert not vague.determined(prior_sd).any()

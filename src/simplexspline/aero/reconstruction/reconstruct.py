@@ -1581,6 +1581,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         est = estimates(CALIBRATION_STATES)
         combined, excluded = combine_campaign(est)
         distrusted = {m for per in excluded.values() for m in per}
+        together = set()      # a vane's constants held together (one joint estimate)
         for vane in VANE_STATES:
             # the maneuvers that estimate the most of the vane's constants (a maneuver with
             # gusts holds its scale and position: its offset is conditional on them)
@@ -1598,6 +1599,10 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
             for i, k in enumerate(group):
                 combined[k] = CombinedEstimate(float(joint.value[i]), float(joint.sigma()[i]),
                                                joint.used, {})
+            # held together: the offset is the one for the scale error and position found
+            # with it (JointEstimate.determined)
+            held = joint.determined([est[k][0][2] for k in group])
+            together |= {k for k, h in zip(group, held) if h}
             mine = {r["maneuver"]: r["calibration"] for r in results if r["ok"]}
             for m, z in joint.excluded.items():
                 for k in group:
@@ -1605,7 +1610,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         gusty = {r["maneuver"] for r in results if r["ok"] and r.get("gusts", 0.0) > 0}
         lone = lone_in_gusts(combined, gusty, LONE_IN_GUSTS_STATES)
         for k, c in combined.items():
-            if c is None or c.sigma > 0.5 * est[k][0][2]:
+            if c is None or (c.sigma > 0.5 * est[k][0][2] and k not in together):
                 continue              # the campaign does not observe it: left at its prior
             if k in lone:             # one turbulent maneuver alone: nothing to check it
                 excluded.setdefault(k, {}).update(lone[k])
