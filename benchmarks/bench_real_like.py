@@ -126,6 +126,10 @@ def main() -> None:
     ap.add_argument("--no-identify", action="store_true", help="stop after the reconstruction")
     ap.add_argument("--give-lags", action="store_true",
                     help="give the channel lags in the mapping file (default: estimated)")
+    ap.add_argument("--no-installation", action="store_true",
+                    help="leave the installation out of the mapping file (vane positions and "
+                         "calibrations, IMU position: a user who knows none of them); the "
+                         "reconstruction then estimates the vanes' positions along x")
     ap.add_argument("--keep", type=Path, default=None,
                     help="write the record into this new directory and keep it")
     args = ap.parse_args()
@@ -145,7 +149,9 @@ def main() -> None:
         record = write_channel_record(thrust_in_truth(df), args.keep or Path(tmp) / "record",
                                       rate_hz=10.0)
         mapping = record / "mapping.toml"
-        mapping.write_text(mapping.read_text() + "\n" + installation(sensors, args.give_lags))
+        if not args.no_installation:
+            mapping.write_text(mapping.read_text() + "\n"
+                               + installation(sensors, args.give_lags))
         t0 = time.perf_counter()
         imported = import_record(mapping)
         t_import = time.perf_counter() - t0
