@@ -83,7 +83,7 @@ def test_a_turn_is_found_by_its_heading_change_and_keeps_its_steady_part():
     from simplexspline.aero.data.segmentation import Segment, detect_turns, outside
     from simplexspline.aero.reconstruction.wind_triangle import MIN_HEADING_CHANGE
 
-    t = np.arange(0.0, 400.0, 0.1)
+    t = np.arange(0.0, 350.0, 0.1)
     rate = np.interp(t, [100.0, 105.0, 160.0, 165.0], [0.0, 1.5, 1.5, 0.0]) * np.pi / 180
     rate = np.where((t > 100) & (t < 165), rate, 0.0)
     rate += np.where((t > 250) & (t < 260), 2.0 * np.sin(2 * np.pi * (t - 250) / 5.0), 0.0) \
@@ -116,3 +116,44 @@ def test_the_turns_between_detected_maneuvers_become_maneuvers_unless_switched_o
                                                    "excitation-elevator"]
     with pytest.raises(InputError, match=r"turns.*must be true or false"):
         import_record(_mapping(tmp_path, "[segments]\nturns = \"yes\"\n"))
+
+
+def test_stationary_measurements_are_found_between_the_maneuvers():
+    """A course at 10 Hz: a stationary measurement at 60 m/s (90 s) with a maneuver inside
+    it, an acceleration to 70 m/s (40 s), a second at 70 m/s (60 s) whose last 20 s climb
+    60 m, a turn, a third of 20 s only. Found: the first's parts either side of the
+    maneuver (40 s each), the second's level part; not the acceleration, the climb, the
+    turn or the short one."""
+    from simplexspline.aero.data.segmentation import (STEADY_MIN_S, Segment, detect_steady)
+
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 350.0, 0.1)
+    tas = np.interp(t, [0, 90, 130, 400], [60.0, 60.0, 70.0, 70.0])
+    h = 1000.0 + np.interp(t, [0, 190, 210, 400], [0.0, 0.0, 60.0, 60.0])
+    turning = (t > 230) & (t < 330)
+    rate = np.where(turning, 3.0 * np.pi / 180, 0.0)
+    phi = np.where(turning, 0.4, 0.0)
+    data = {"tas": tas + 0.1 * rng.standard_normal(t.size),
+            "h": h + 1.0 * rng.standard_normal(t.size),
+            "q": rate * np.sin(phi), "r": rate * np.cos(phi), "phi": phi,
+            "theta": np.full(t.size, 0.02)}
+    others = [Segment(40.0, 50.0, "excitation-elevator")]
+    found = detect_steady(t, data, np.ones(t.size, bool), others)
+    assert all(s.type == "steady" and s.end - s.start >= STEADY_MIN_S for s in found)
+    spans = [(round(s.start), round(s.end)) for s in found]
+    assert len(found) == 3, spans
+    assert found[0].start == 0.0 and 39.0 <= found[0].end <= 40.0        # before the maneuver
+    assert 50.0 <= found[1].start <= 51.0 and 86.0 <= found[1].end <= 100.0  # after it
+    assert 118.0 <= found[2].start <= 132.0 and 188.0 <= found[2].end <= 202.0  # at 70 m/s
+    assert detect_steady(t, {"tas": data["tas"]}, np.ones(t.size, bool), []) == []
+
+
+def test_stationary_measurements_can_be_switched_off_and_the_key_is_a_boolean(tmp_path):
+    from simplexspline.errors import InputError
+
+    on = import_record(_mapping(tmp_path, ""))
+    off = import_record(_mapping(tmp_path, "[segments]\nsteady = false\n"))
+    assert not any(s["type"] == "steady" for s in off.segments())
+    assert len(on.segments()) >= len(off.segments())
+    with pytest.raises(InputError, match=r"steady.*must be true or false"):
+        import_record(_mapping(tmp_path, "[segments]\nsteady = 1\n"))

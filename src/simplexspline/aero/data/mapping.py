@@ -210,6 +210,11 @@ class SegmentSpec:
         Excitation: the turns that no detected maneuver overlaps become maneuvers too
         (type ``turn``, :func:`~simplexspline.aero.data.segmentation.detect_turns`):
         without a heading channel they are what observes the wind. Default true.
+    steady : bool
+        Excitation: the stationary measurements between the maneuvers and turns become
+        maneuvers too (type ``steady``, straight and level at one airspeed for 30 s or more,
+        :func:`~simplexspline.aero.data.segmentation.detect_steady`): they tell a vane's
+        offset from its scale error and trace the lift curve. Default true.
     min_airspeed : float
         Without a weight-on-wheels channel, samples slower than this [m/s] are ground.
     min_height : float
@@ -225,6 +230,7 @@ class SegmentSpec:
     min_duration_s: float = 5.0
     quiet_s: float = 300.0
     turns: bool = True
+    steady: bool = True
     min_airspeed: float = 25.0
     min_height: float = 15.0
 
@@ -466,8 +472,8 @@ def _channel(path: Path, text: str, target: str, entry) -> ChannelMap:
 
 def _segments(r: _Reader, base: Path) -> SegmentSpec:
     fields = {"threshold", "window_s", "merge_s", "min_duration_s"}
-    r.unknown({"method", "list", "pad_s", "quiet_s", "turns", "min_airspeed", "min_height"}
-              | fields)
+    r.unknown({"method", "list", "pad_s", "quiet_s", "turns", "steady", "min_airspeed",
+               "min_height"} | fields)
     method = r.str("method", "auto", choices=SEGMENT_METHODS)
     lst = r.str("list")
     if method == "list" and lst is None:
@@ -478,10 +484,11 @@ def _segments(r: _Reader, base: Path) -> SegmentSpec:
     if kw["quiet_s"] < 0:
         r.fail("quiet_s", "must be a finite number of seconds >= 0 (0: one quiet level for "
                           f"the whole record), got {kw['quiet_s']:g}")
-    turns = r.table.get("turns", True)
-    if not isinstance(turns, bool):
-        r.fail("turns", f"must be true or false, got {turns!r}")
-    kw["turns"] = turns
+    for flag in ("turns", "steady"):
+        value = r.table.get(flag, True)
+        if not isinstance(value, bool):
+            r.fail(flag, f"must be true or false, got {value!r}")
+        kw[flag] = value
     if "min_airspeed" in r.table:
         kw["min_airspeed"] = r.quantity("min_airspeed", "m/s")
     if "min_height" in r.table:

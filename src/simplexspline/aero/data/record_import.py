@@ -299,6 +299,7 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
         segments, _ = segmentation.detect_excitation(
             grid, cols, usable, threshold=seg.threshold, window_s=seg.window_s,
             pad_s=seg.pad_s, merge_s=seg.merge_s, quiet_s=seg.quiet_s)
+        detected = segments
         if seg.turns:
             # the turns between the maneuvers observe the wind of a record without heading
             turns = [u for u in (segmentation.outside(u, segments) for u in
@@ -311,15 +312,28 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
                              "steady part between the detected maneuvers: without a heading "
                              "channel they observe the wind)")
             segments = sorted(segments + turns, key=lambda x: x.start)
+        if seg.steady:
+            # the stationary measurements: a vane's calibration and the lift curve
+            steady = segmentation.detect_steady(grid, cols, usable, segments)
+            if steady:
+                notes.append(f"{len(steady)} stationary measurement(s) cut as maneuvers of "
+                             "type 'steady' (straight and level at one airspeed for "
+                             f"{segmentation.STEADY_MIN_S:g} s or more between the detected "
+                             "maneuvers)")
+            segments = sorted(segments + steady, key=lambda x: x.start)
     else:
         segments = segmentation.airborne_segments(grid, usable)
     pieces, cut_notes = segmentation.cut(grid, usable, segments,
                                          min_duration_s=seg.min_duration_s)
-    if seg.method == "auto" and method == "excitation" and len(pieces) < 2:
+    detections = (len(segmentation.cut(grid, usable, detected,
+                                       min_duration_s=seg.min_duration_s)[0])
+                  if method == "excitation" else len(pieces))
+    if seg.method == "auto" and method == "excitation" and detections < 2:
         # a record of one maneuver (or of none that stands out): every airborne stretch
+        # (the turns and stationary measurements between maneuvers go with it)
         segments = segmentation.airborne_segments(grid, usable)
-        notes.append(f"method 'auto': excitation detection found {len(pieces)} maneuver(s); "
-                     "every airborne stretch is one instead")
+        notes = [f"method 'auto': excitation detection found {detections} maneuver(s); "
+                 "every airborne stretch is one instead"]
         method = "airborne"
         pieces, cut_notes = segmentation.cut(grid, usable, segments,
                                              min_duration_s=seg.min_duration_s)

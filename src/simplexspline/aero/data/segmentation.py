@@ -9,7 +9,8 @@ schema's maneuvers in three steps:
 2. the maneuvers: a time list (:func:`read_maneuver_list`, CSV ``start,end,type`` or TOML
    ``[[maneuver]]``, record time [s]), or :func:`detect_excitation` (control-surface and
    rate activity above ``threshold`` times the record's quiet level) with the turns between
-   them (:func:`detect_turns`), or every airborne stretch as one maneuver;
+   them (:func:`detect_turns`) and the stationary measurements (:func:`detect_steady`), or
+   every airborne stretch as one maneuver;
 3. :func:`cut`: each maneuver is intersected with the usable samples (airborne, no dropout);
    a maneuver interrupted by a dropout becomes several, pieces shorter than
    ``min_duration_s`` are dropped, and every decision is reported.
@@ -26,7 +27,8 @@ from simplexspline.aero.reconstruction.kinematics import euler_rates
 from simplexspline.errors import InputError
 
 __all__ = ["Segment", "airborne_mask", "read_maneuver_list", "detect_excitation",
-           "detect_turns", "outside", "airborne_segments", "cut", "EXCITATION_SIGNALS",
+           "detect_turns", "detect_steady", "outside", "airborne_segments", "cut",
+           "EXCITATION_SIGNALS", "STEADY_AIRSPEED_BAND", "STEADY_HEIGHT_BAND", "STEADY_MIN_S",
            "TURN_RATE"]
 
 #: Signals whose activity marks a maneuver, and the axis each belongs to.
@@ -310,6 +312,108 @@ def detect_turns(t: np.ndarray, data, usable: np.ndarray, *, min_change: float,
             if abs(float(np.sum(rate[a:b])) * dt) >= min_change:
                 out.append(Segment(float(t[a]) - pad_s, float(t[b - 1]) + pad_s, "turn"))
     return sorted(out, key=lambda s: s.start)
+
+
+#: A stationary measurement holds its airspeed within this band [m/s] (:func:`detect_steady`):
+#: a pilot holds a test point to a knot or two, and 2 m/s is four times the airspeed
+#: sensor's noise after the smoothing below.
+STEADY_AIRSPEED_BAND = 2.0
+#: ... and its altitude within this band [m] (100 ft).
+STEADY_HEIGHT_BAND = 30.0
+#: ... for at least this long [s]: a stationary measurement lasts a minute or more.
+STEADY_MIN_S = 30.0
+
+
+def _longest_within(x: np.ndarray, band: np.ndarray) -> tuple[int, int]:
+    """The longest run ``[a, b)`` over which every column of ``x`` (n, k) stays within
+    ``band`` (k,) of its own minimum (two pointers over running extrema)."""
+    from collections import deque
+
+    n, k = x.shape
+    lo = [deque() for _ in range(k)]
+    hi = [deque() for _ in range(k)]
+    best, a = (0, 0), 0
+    for b in range(n):
+        for j in range(k):
+            while lo[j] and x[lo[j][-1], j] >= x[b, j]:
+                lo[j].pop()
+            lo[j].append(b)
+            while hi[j] and x[hi[j][-1], j] <= x[b, j]:
+                hi[j].pop()
+            hi[j].append(b)
+            while x[hi[j][0], j] - x[lo[j][0], j] > band[j]:
+                a += 1
+                for d in (lo, hi):
+                    for q in d:
+                        while q and q[0] < a:
+                            q.popleft()
+        if b + 1 - a > best[1] - best[0]:
+            best = (a, b + 1)
+    return best
+
+
+def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
+                  min_duration_s: float = STEADY_MIN_S,
+                  airspeed_band: float = STEADY_AIRSPEED_BAND,
+                  height_band: float = STEADY_HEIGHT_BAND,
+                  smooth_s: float = 2.0) -> list[Segment]:
+    """The stationary measurements of a flight: straight, level stretches at one airspeed
+    between the detected maneuvers and turns.
+
+    The excitation detector cuts where the controls and rates move, so a flight-test
+    course's stationary measurements (a minute or more of trimmed flight at each airspeed)
+    were dropped. They are the data that tell a vane's offset from its scale error (each
+    observes the offset plus the scale error times its one angle of attack) and that trace
+    the lift curve: on a simulated still-air Cessna course cut by excitation, the angle of
+    attack came out 1.5e-3 rad RMS off without them, 2.0e-4 with a maneuver list that
+    logged them. Here every stretch of usable samples that ``others`` do not overlap and
+    that does not turn (heading rate below :data:`TURN_RATE`) gives its longest part whose
+    airspeed and altitude (averaged over ``smooth_s``) stay within ``airspeed_band`` and
+    ``height_band``, when it lasts ``min_duration_s`` or more, and so on in what is left
+    either side of it: type ``steady``.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Record time [s] on a uniform grid.
+    data : mapping of str to ndarray
+        ``tas`` [m/s] and ``h`` [m]; ``q, r, phi, theta`` for the heading rate. Without
+        ``tas`` or ``h`` none is found.
+    usable : ndarray of bool, shape (n,)
+    others : list of Segment
+        The maneuvers (and turns) already cut.
+    min_duration_s, airspeed_band, height_band, smooth_s : float
+
+    Returns
+    -------
+    list of Segment
+    """
+    if not all(c in data for c in ("tas", "h")) or len(t) < 2:
+        return []
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(round(smooth_s / dt)))
+    x = np.column_stack([_moving_mean(_fill(np.asarray(data[c], dtype=float)), k)
+                         for c in ("tas", "h")])
+    free = np.asarray(usable, bool).copy()
+    for o in others:
+        free &= ~((t >= o.start) & (t <= o.end))
+    if all(c in data for c in ("q", "r", "phi", "theta")):
+        q, r, phi, theta = (_fill(np.asarray(data[c], dtype=float))
+                            for c in ("q", "r", "phi", "theta"))
+        rate = _moving_mean(euler_rates(0.0, q, r, phi, theta)[2], k)
+        free &= np.abs(rate) <= TURN_RATE
+    band = np.array([airspeed_band, height_band])
+    out = []
+    todo = list(_runs(free))
+    while todo:                 # the longest steady part, then those left and right of it
+        a, b = todo.pop()
+        if (b - a) * dt < min_duration_s:
+            continue
+        i, j = _longest_within(x[a:b], band)
+        if (j - i) * dt >= min_duration_s:
+            out.append(Segment(float(t[a + i]), float(t[a + j - 1]), "steady"))
+            todo += [(a, a + i), (a + j, b)]
+    return sorted(out, key=lambda seg: seg.start)
 
 
 def outside(segment: Segment, others: list) -> Segment | None:

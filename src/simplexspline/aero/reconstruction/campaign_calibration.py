@@ -230,35 +230,31 @@ class JointEstimate:
 
 
 def _observed_part(mean, cov, prior_sd) -> tuple:
-    """The directions one maneuver observes itself and what its data say along them.
+    """The directions one maneuver observes itself and what its data say along them, in
+    the prior's whitened coordinates ``z = theta / prior_sd`` (prior ``N(0, I)``: the
+    directions then do not depend on the constants' units, radians against metres).
 
-    The data's information is the posterior's less the prior's (zero-mean prior
-    ``diag(prior_sd**2)``); a direction counts as observed where the posterior sigma is at
-    most :data:`OBSERVED` of the prior's along it (the scalar rule of
-    :func:`combine_campaign`). Returns ``(directions (k, m), information (m,), values
-    (m,))``: unit vectors, the data's information along each [1/unit^2] and the data's
-    value along each."""
-    mean = np.asarray(mean, dtype=float)
-    post_info = np.linalg.inv(np.asarray(cov, dtype=float))
-    prior_info = np.diag(1.0 / np.asarray(prior_sd, dtype=float) ** 2)
-    data = 0.5 * ((post_info - prior_info) + (post_info - prior_info).T)
-    lam, vec = np.linalg.eigh(data)
-    info_vector = post_info @ mean                # the prior's mean is zero
-    keep = []
-    for j in range(lam.size):
-        u = vec[:, j]
-        p = float(u @ prior_info @ u)
-        if lam[j] >= (OBSERVED ** -2 - 1.0) * p:      # sd_post <= OBSERVED sd_prior
-            keep.append(j)
-    u = vec[:, keep]
-    lam = lam[keep]
-    return u, lam, (u.T @ info_vector) / lam if keep else np.zeros(0)
+    The data's information is the posterior's less the prior's; a direction counts as
+    observed where the posterior sigma is at most :data:`OBSERVED` of the prior's along it
+    (the scalar rule of :func:`combine_campaign`). Returns ``(directions (k, m),
+    information (m,), values (m,))``: whitened unit vectors, the data's information along
+    each and the data's value along each."""
+    sd0 = np.asarray(prior_sd, dtype=float)
+    mean = np.asarray(mean, dtype=float) / sd0
+    post_info = np.linalg.inv(np.asarray(cov, dtype=float) / np.outer(sd0, sd0))
+    data = post_info - np.eye(sd0.size)
+    lam, vec = np.linalg.eigh(0.5 * (data + data.T))
+    keep = lam >= OBSERVED ** -2 - 1.0                # sd_post <= OBSERVED sd_prior
+    u, lam = vec[:, keep], lam[keep]
+    info_vector = post_info @ mean                     # the prior's mean is zero
+    return u, lam, (u.T @ info_vector) / lam if lam.size else np.zeros(0)
 
 
-def _pool_joint(parts: Sequence[tuple], prior_sd) -> tuple[np.ndarray, np.ndarray]:
-    """Combination (value, covariance) of observed parts under the zero-mean prior."""
-    info = np.diag(1.0 / np.asarray(prior_sd, dtype=float) ** 2)
-    vector = np.zeros(info.shape[0])
+def _pool_joint(parts: Sequence[tuple], k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Combination (value, covariance) of observed parts under the whitened prior
+    ``N(0, I)`` of ``k`` constants."""
+    info = np.eye(k)
+    vector = np.zeros(k)
     for u, lam, y in parts:
         info = info + (u * lam) @ u.T
         vector = vector + u @ (lam * y)
@@ -314,13 +310,14 @@ def combine_joint(estimates: Sequence[tuple],
             parts[m] = part
     if not parts:
         return None
+    k = prior_sd.size
     excluded = {}
     while len(parts) >= 3:
         n_dir = sum(p[1].size for p in parts.values())
         worst, z_worst = None, outlier_threshold(n_dir, false_alarm)
         for m, (u, lam, y) in parts.items():
-            others = [p for k, p in parts.items() if k != m]
-            x, c = _pool_joint(others, prior_sd)
+            others = [p for q, p in parts.items() if q != m]
+            x, c = _pool_joint(others, k)
             chi2 = sum(float(np.sum(lo * (yo - uo.T @ x) ** 2)) for uo, lo, yo in others)
             dof = sum(lo.size for _, lo, _ in others) - x.size
             scale = math.sqrt(max(1.0, chi2 / dof)) if dof > 0 else 1.0
@@ -332,7 +329,8 @@ def combine_joint(estimates: Sequence[tuple],
             break
         parts.pop(worst)
         excluded[worst] = z_worst
-    value, cov = _pool_joint(list(parts.values()), prior_sd)
+    z, c = _pool_joint(list(parts.values()), k)
+    value, cov = prior_sd * z, c * np.outer(prior_sd, prior_sd)
     return JointEstimate(value, cov, tuple(parts), excluded)
 
 

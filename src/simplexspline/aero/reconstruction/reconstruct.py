@@ -1520,8 +1520,26 @@ def _run_all(tasks: list, settings: dict, workers: _Workers, progress: bool) -> 
     return results
 
 
+def _longest_of_each_kind(tasks: list, kinds: Mapping) -> list:
+    """``tasks`` in turns over their kinds (``kinds``: maneuver -> type; one kind when
+    absent), each kind's longest first: a capped calibration pass then holds some of every
+    kind (on a Cessna course cut by excitation, the 14 longest straight maneuvers were all
+    stationary measurements, and with no pitch input among them the vane's position came
+    out at 10.4 m for 4)."""
+    groups: dict = {}
+    for t in sorted(tasks, key=lambda t: -len(t["rows"])):
+        groups.setdefault(kinds.get(int(t["maneuver"])), []).append(t)
+    out = []
+    while any(groups.values()):
+        for g in groups.values():
+            if g:
+                out.append(g.pop(0))
+    return out
+
+
 def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: _Workers,
-                          progress: bool) -> tuple[dict, dict, dict, dict, list]:
+                          progress: bool, kinds: Mapping | None = None
+                          ) -> tuple[dict, dict, dict, dict, list]:
     """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
 
     Each maneuver's final estimate is a posterior of the same constant under the same
@@ -1559,13 +1577,22 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
     if not gps:
         return {}, {}, {}, {}, []
-    gps = sorted(gps, key=heading_excursion, reverse=True)[:settings.calibration_maneuvers]
+    gps = sorted(gps, key=heading_excursion, reverse=True)
     # without a heading channel a straight maneuver trades its heading against a crosswind
     # and the air-data errors with them (wind_triangle): calibrate on the turns if any,
-    # except the angle-of-attack vane, which the straight maneuvers observe as well
-    turning = {int(t["maneuver"]) for t in gps if heading_excursion(t) >= MIN_HEADING_CHANGE}
-    if not turning or all(channels_present(t)["psi"] for t in gps):
+    # except the angle-of-attack vane, which the straight maneuvers observe as well; those
+    # join kind by kind, the longest first (stationary measurements each hold one angle of
+    # attack for a minute and together tell the vane's offset from its scale error; the
+    # pulses' pitch rates tell its position)
+    turning = [t for t in gps if heading_excursion(t) >= MIN_HEADING_CHANGE]
+    if turning and not all(channels_present(t)["psi"] for t in gps):
+        straight = _longest_of_each_kind(
+            [t for t in gps if heading_excursion(t) < MIN_HEADING_CHANGE], kinds or {})
+        gps = turning + straight
+        turning = {int(t["maneuver"]) for t in turning}
+    else:
         turning = {int(t["maneuver"]) for t in gps}
+    gps = gps[:settings.calibration_maneuvers]
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
     results = _run_all(gps, s, workers, progress)
 
@@ -1659,8 +1686,10 @@ def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: _Work
     calibration, excluded, imu = {}, {}, {}
     if "campaign" in (settings.air_data_calibration, settings.imu_calibration,
                       settings.wind_calibration):
+        kinds = ({int(m): str(k) for m, k in df.groupby("maneuver")["maneuver_type"]
+                  .first().items()} if "maneuver_type" in df.columns else {})
         calibration, excluded, imu, imu_per_maneuver, winds = _campaign_calibration(
-            tasks, settings, workers, progress)
+            tasks, settings, workers, progress, kinds)
         for task in tasks:
             if settings.air_data_calibration == "campaign":
                 task["calibration"] = calibration
