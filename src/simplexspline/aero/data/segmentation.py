@@ -18,6 +18,7 @@ schema's maneuvers in three steps:
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -327,8 +328,6 @@ STEADY_MIN_S = 30.0
 def _longest_within(x: np.ndarray, band: np.ndarray) -> tuple[int, int]:
     """The longest run ``[a, b)`` over which every column of ``x`` (n, k) stays within
     ``band`` (k,) of its own minimum (two pointers over running extrema)."""
-    from collections import deque
-
     n, k = x.shape
     lo = [deque() for _ in range(k)]
     hi = [deque() for _ in range(k)]

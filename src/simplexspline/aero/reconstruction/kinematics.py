@@ -25,11 +25,11 @@ wind ``wind_n, wind_e, wind_d`` [m/s] (NED velocity of the air mass, constant or
 walk); vane scale-factor errors ``kalpha, kbeta`` [-]; the gusts ``gust_n, gust_e,
 gust_d`` [m/s] (turbulence on top of the steady wind: a zero-mean first-order Gauss-Markov
 process, ``g[k+1] = a g[k] + w``, whose decay ``a`` the caller gives; see
-:mod:`~simplexspline.aero.reconstruction.gusts`). The vanes' position errors along the body x axis
-``xalpha, xbeta`` [m] (a vane ahead of where the sensor geometry puts it reads the pitch
-rate's and yaw rate's induced angles ``-q dx / V`` and ``r dx / V`` on top). The air moves at wind + gust. Which
-states are estimated depends on the channels present (the driver holds the unobservable
-ones at their prior).
+:mod:`~simplexspline.aero.reconstruction.gusts`); the vanes' position errors along the
+body x axis ``xalpha, xbeta`` [m] (a vane ahead of where the sensor geometry puts it reads
+the pitch rate's and yaw rate's induced angles ``-q dx / V`` and ``r dx / V`` on top). The
+air moves at wind + gust. Which states are estimated depends on the channels present (the
+driver holds the unobservable ones at their prior).
 
 Measurements (12): GPS position ``x_gps, y_gps, z_gps``, GPS velocity ``vn_gps, ve_gps,
 vd_gps``, air data ``tas, alpha, beta`` (of the air-relative velocity, at the vanes'

@@ -223,7 +223,8 @@ class ReconstructionSettings:
         3-maneuver f16 campaign in light turbulence), ``vane_scale`` [-], ``heading``
         [rad] (of the heading taken from the GPS track when there is no heading channel) and
         ``vane_position`` [m] (a vane's position error along x, where the geometry does not
-        give it: 5 m covers a nose boom). Biases start at zero. States the channels cannot observe are held at their prior
+        give it: 5 m covers a nose boom). Biases start at zero. States the channels cannot
+        observe are held at their prior
         (:mod:`~simplexspline.aero.reconstruction.observability`).
     velocity_model_noise : float
         Extra process noise on u, v, w [m/s^2 per step, 1 sigma] for model errors
