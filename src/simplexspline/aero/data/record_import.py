@@ -325,10 +325,12 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
         segments = segmentation.airborne_segments(grid, usable)
     pieces, cut_notes = segmentation.cut(grid, usable, segments,
                                          min_duration_s=seg.min_duration_s)
+    # 'auto' judges the detection by the maneuvers it found, without the turns and
+    # stationary measurements cut between them
     detections = (len(segmentation.cut(grid, usable, detected,
                                        min_duration_s=seg.min_duration_s)[0])
-                  if method == "excitation" else len(pieces))
-    if seg.method == "auto" and method == "excitation" and detections < 2:
+                  if seg.method == "auto" and method == "excitation" else 2)
+    if detections < 2:
         # a record of one maneuver (or of none that stands out): every airborne stretch
         # (the turns and stationary measurements between maneuvers go with it)
         segments = segmentation.airborne_segments(grid, usable)

@@ -48,6 +48,7 @@ import numpy as np
 from simplexspline.aero.reconstruction.kinematics import euler_rates
 
 __all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "POSITION_GIVEN",
+           "POSITION_NOT_REQUESTED",
            "channels_present",
            "heading_excursion", "observability_plan", "variance_reduction"]
 
@@ -92,6 +93,9 @@ def channels_present(task: Mapping) -> dict:
 
 #: Why a vane's position error is held: the sensor geometry gives the position.
 POSITION_GIVEN = "given in the sensor geometry: held there"
+#: Why a vane's position error is held with ``estimate_vane_position=False``.
+POSITION_NOT_REQUESTED = ("not requested (estimate_vane_position=False): held at the given "
+                          "position")
 
 
 def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True,
@@ -140,8 +144,7 @@ def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True,
         if vane in positions_given:
             held.setdefault(state, POSITION_GIVEN)
         elif not estimate_vane_position:
-            held.setdefault(state, "not requested (estimate_vane_position=False): held at "
-                                   "the given position")
+            held.setdefault(state, POSITION_NOT_REQUESTED)
     if not present["beta"]:
         held["bbeta"] = "no sideslip vane"
         held["kbeta"] = "no sideslip vane"

@@ -56,7 +56,8 @@ from simplexspline.aero.reconstruction.kinematics import (
     WIND_STATES, EarthModel, measure, step_mean,
 )
 from simplexspline.aero.reconstruction.observability import (
-    POSITION_GIVEN, channels_present, heading_excursion, observability_plan,
+    POSITION_GIVEN, POSITION_NOT_REQUESTED, channels_present, heading_excursion,
+    observability_plan,
     variance_reduction,
 )
 from simplexspline.aero.reconstruction.sensor_corrections import (
@@ -1610,6 +1611,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         combined, excluded = combine_campaign(est)
         distrusted = {m for per in excluded.values() for m in per}
         together = set()      # a vane's constants held together (one joint estimate)
+        mine = {r["maneuver"]: r["calibration"] for r in results if r["ok"]}
         for vane in VANE_STATES:
             # the maneuvers that estimate the most of the vane's constants (a maneuver with
             # gusts holds its scale and position: its offset is conditional on them)
@@ -1631,7 +1633,6 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
             # with it (JointEstimate.determined)
             held = joint.determined([est[k][0][2] for k in group])
             together |= {k for k, h in zip(group, held) if h}
-            mine = {r["maneuver"]: r["calibration"] for r in results if r["ok"]}
             for m, z in joint.excluded.items():
                 for k in group:
                     excluded.setdefault(k, {})[m] = (*mine[m][k][:2], z)
@@ -1820,7 +1821,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         elif positions:
             for r in results:
                 for k in POSITION_STATES:
-                    if r["ok"] and k in r["held"] and r["held"][k].startswith("not requested"):
+                    if r["ok"] and r["held"].get(k) == POSITION_NOT_REQUESTED:
                         r["held"][k] = POSITION_AFTER_LAGS
         smoothed = _smooth_controls(df, tasks, pool) if settings.smooth_controls else {}
     accepted, rejected, rows, parts = {}, {}, [], []
