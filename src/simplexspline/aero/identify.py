@@ -58,7 +58,7 @@ from simplexspline.aero.selection.validation import (
     PAPER_TABLE2,
     scores,
     scores_by_coverage,
-    split_by_maneuver,
+    validation_split,
 )
 from simplexspline._files import jsonable, locked, remove_stale, temp_dir
 from simplexspline._compute_slots import busy_seconds, compute_slot, init_worker
@@ -239,13 +239,20 @@ class Identification:
         outputs ``model_<C>``, ``inside_<C>`` (bool: inside the envelope and inside the
         model's identified box, where its scores count) and ``inside_envelope`` (bool:
         the sample lies in an envelope cell the identification data cover) added to
-        ``validation``.
+        ``validation``. A maneuver held out for one coefficient alone (``own_validation``)
+        stays in ``identification``, with that coefficient's ``model_<C>`` and
+        ``inside_<C>`` there.
     settings : IdentificationSettings
     metadata : dict
         Flight-data metadata.
     provenance : dict
         Input hash, package version, times, reconstruction summary.
     warnings : list of str
+    own_validation : dict of str to maneuver id
+        Coefficients that the shared validation maneuvers do not excite, and the maneuver
+        held out for each alone (:class:`~simplexspline.aero.selection.validation.
+        ValidationSplit`, ``added``): its model was identified without it and validated
+        on it too.
     """
 
     results: dict
@@ -255,6 +262,25 @@ class Identification:
     metadata: dict
     provenance: dict
     warnings: list = field(default_factory=list)
+    own_validation: dict = field(default_factory=dict)
+
+    def identification_of(self, c: str):
+        """The samples coefficient ``c``'s model was identified on (pandas.DataFrame)."""
+        if c not in self.own_validation:
+            return self.identification
+        ident = self.identification
+        return ident.loc[ident["maneuver"].to_numpy() != self.own_validation[c]]
+
+    def validation_of(self, c: str):
+        """The samples coefficient ``c``'s model was validated on (pandas.DataFrame): the
+        shared validation maneuvers and its own (``own_validation``), if any."""
+        if c not in self.own_validation:
+            return self.validation
+        import pandas as pd  # optional dependency (the 'aero' extra)
+
+        ident = self.identification
+        own = ident.loc[ident["maneuver"].to_numpy() == self.own_validation[c]]
+        return pd.concat([self.validation, own])
 
     @property
     def has_truth(self) -> bool:
@@ -291,6 +317,8 @@ class Identification:
                    int(m) for m in np.unique(self.identification["maneuver"])),
                "validation_maneuvers": sorted(
                    int(m) for m in np.unique(self.validation["maneuver"])),
+               "own_validation_maneuvers": {c: int(m) for c, m in
+                                            self.own_validation.items()},
                "warnings": list(self.warnings),
                "coefficients": {}}
         for c, res in self.results.items():
@@ -511,13 +539,14 @@ def identify(df, metadata: Mapping | None = None, *,
     structures = settings.starting_structures()
     data, rec_note, used, settings, dropped, gusty = _identification_data(
         df, meta, settings, structures, progress, log)
-    ident, valid, coverage = _split(data, settings, log)
+    ident, valid, coverage, own, own_notes = _split(data, settings, log)
     columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
                if c in used or c in settings.selection.candidates}
     columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
-    results, notes, sideslip = _fit_all(structures, ident, valid, columns, coverage, settings,
-                                        source, progress, log, gusty)
-    notes = dropped + notes
+    results, notes, sideslip = _fit_all(structures, ident, valid, columns,
+                                        _Splits(coverage, own), settings, source, progress,
+                                        log, gusty)
+    notes = dropped + own_notes + notes
     prov = {"software": f"simplexspline {__version__}",
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "seconds": round(time.perf_counter() - t_start, 2),
@@ -526,8 +555,9 @@ def identify(df, metadata: Mapping | None = None, *,
         prov["sideslip"] = sideslip
     if source:
         prov["source"] = source
-    _record_provenance(results, ident, meta, settings, prov)
-    return Identification(results, ident, valid, settings, meta, prov, notes)
+    out = Identification(results, ident, valid, settings, meta, prov, notes, own)
+    _record_provenance(results, out, meta, settings, prov)
+    return out
 
 
 def _identification_data(df, meta: dict, settings: IdentificationSettings,
@@ -615,7 +645,7 @@ def _gusts_without_vane(record: Mapping) -> list:
     return out
 
 
-def _fit_all(structures: Mapping, ident, valid, columns: Mapping, coverage: _Coverage,
+def _fit_all(structures: Mapping, ident, valid, columns: Mapping, splits: _Splits,
              settings: IdentificationSettings, source, progress: bool, log, gusty: list):
     """Step 3 for every coefficient: :func:`_fit_coefficients`, in two stages when the
     reconstruction found gusts without a sideslip vane (``gusty``: maneuvers): CY first on
@@ -628,9 +658,9 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, coverage: _Cov
     others = tuple(c for c in coefs if c != "CY")
     lateral = [c for c in ("Cl", "Cn") if c in others]
     if not gusty or "CY" not in coefs or not lateral or "beta" not in ident.columns:
-        return (*_fit_coefficients(structures, ident, valid, columns, coverage, settings,
+        return (*_fit_coefficients(structures, ident, valid, columns, splits, settings,
                                    source, progress, log), None)
-    first, notes = _fit_coefficients(structures, ident, valid, columns, coverage,
+    first, notes = _fit_coefficients(structures, ident, valid, columns, splits,
                                       replace(settings, coefficients=("CY",)), source,
                                       progress, log)
     model = first["CY"].model
@@ -660,7 +690,7 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, coverage: _Cov
         note = (head + f"{why}: the others keep the kinematic sideslip, which misses the "
                 "lateral gusts")
         log(f"note: {note}")
-        rest, more = _fit_coefficients(structures, ident, valid, columns, coverage,
+        rest, more = _fit_coefficients(structures, ident, valid, columns, splits,
                                        replace(settings, coefficients=others), source,
                                        progress, log)
         return {c: {**first, **rest}[c] for c in coefs}, notes + [note] + more, None
@@ -668,12 +698,14 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, coverage: _Cov
               "validation": valid.assign(beta=choice.validation)}
     cols = {**columns, "beta": choice.identification}
     rest, more = _fit_coefficients(structures, frames["identification"],
-                                   frames["validation"], cols, coverage,
+                                   frames["validation"], cols, splits,
                                    replace(settings, coefficients=others), source, progress,
                                    log)
     for c in others:
         for k in (f"model_{c}", f"inside_{c}"):
             valid[k] = frames["validation"][k]
+            if k in frames["identification"].columns:       # its own validation maneuver
+                ident[k] = frames["identification"][k]
     record = {"source": "side force through CY's model (beta + (CY - CY_model) / "
                         "(dCY/dbeta); cross-fitted by maneuver on the identification data) "
                         "in the maneuvers with gusts; CY on the kinematic sideslip",
@@ -727,6 +759,36 @@ class _Coverage:
 
     ident_cells: np.ndarray
     valid_covered: np.ndarray
+    valid_cells: np.ndarray
+    envelope: EnvelopeCells
+
+
+@dataclass(frozen=True)
+class _Splits:
+    """The shared split's coverage and the maneuvers held out for one coefficient alone
+    (:attr:`Identification.own_validation`)."""
+
+    coverage: _Coverage
+    own: dict
+
+    def of(self, c: str, ident, valid, columns: Mapping) -> tuple:
+        """Coefficient ``c``'s identification frame, validation frame, identification
+        columns and coverage: the shared ones, or, when it has a maneuver of its own,
+        the shared ones with that maneuver moved from identification to the end of
+        validation (coverage recomputed against the identification left)."""
+        if c not in self.own:
+            return ident, valid, columns, self.coverage
+        import pandas as pd  # optional dependency (the 'aero' extra)
+
+        mine = ident["maneuver"].to_numpy() == self.own[c]
+        cov = self.coverage
+        cells_i = cov.ident_cells[~mine]
+        cells_v = np.concatenate([cov.valid_cells, cov.ident_cells[mine]])
+        covered = cov.envelope.covered(cells_v, cov.envelope.counts(cells_i))
+        valid_c = pd.concat([valid, ident.loc[mine]])
+        valid_c["inside_envelope"] = covered
+        return (ident.loc[~mine], valid_c, {k: v[~mine] for k, v in columns.items()},
+                _Coverage(cells_i, covered, cells_v, cov.envelope))
 
 
 def _split(data, settings: IdentificationSettings, log):
@@ -740,11 +802,13 @@ def _split(data, settings: IdentificationSettings, log):
     held = [v for v in TEST_POINT_VARIABLES if v in data.columns]
     motion = [v for v in MOTION_VARIABLES if v in data.columns] if settings.split_motion \
         else []
-    is_val = split_by_maneuver(data["maneuver"].to_numpy(), settings.validation_fraction,
-                               seed=settings.seed, groups=groups, cells=cells,
-                               excitation=data[excited].to_numpy(dtype=float),
-                               ranges=data[held].to_numpy(dtype=float) if held else None,
-                               motion=data[motion].to_numpy(dtype=float) if motion else None)
+    split = validation_split(data["maneuver"].to_numpy(), settings.validation_fraction,
+                             seed=settings.seed, groups=groups, cells=cells,
+                             excitation=data[excited].to_numpy(dtype=float),
+                             ranges=data[held].to_numpy(dtype=float) if held else None,
+                             motion=data[motion].to_numpy(dtype=float) if motion else None)
+    is_val = split.validation
+    own = {c: m for c, m in zip(excited, split.added) if m is not None}
     ident, valid = data.loc[~is_val].copy(), data.loc[is_val].copy()
     # The metadata live in ``meta``; pandas deep-copies ``attrs`` on every column access
     # (0.26 s each with a campaign's reconstruction record), so the splits carry none.
@@ -753,23 +817,36 @@ def _split(data, settings: IdentificationSettings, log):
         raise InputError("the identification or validation set is empty; give more maneuvers"
                          " or change validation_fraction")
     coverage = _Coverage(cells[~is_val], envelope.covered(cells[is_val],
-                                                          envelope.counts(cells[~is_val])))
+                                                          envelope.counts(cells[~is_val])),
+                         cells[is_val], envelope)
     valid["inside_envelope"] = coverage.valid_covered
     log(f"{data['maneuver'].nunique()} maneuvers: {ident['maneuver'].nunique()} for "
         f"identification ({len(ident):,} samples), {valid['maneuver'].nunique()} for "
         f"validation ({len(valid):,} samples, {100 * coverage.valid_covered.mean():.1f} % "
         f"inside the identification data's envelope)")
-    return ident, valid, coverage
+    types = data.groupby("maneuver")["maneuver_type"].first() \
+        if "maneuver_type" in data.columns else None
+    notes = []
+    for c, m in own.items():
+        kind = "" if types is None else f" ({types.loc[m]})"
+        notes.append(f"{c}: the shared validation maneuvers do not excite it; maneuver {m}"
+                     f"{kind}, which does, is held out for {c} alone (its model is "
+                     "identified without it and validated on it too)")
+        log(f"note: {notes[-1]}")
+    return ident, valid, coverage, own, notes
 
 
 def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
-                      coverage: _Coverage, settings: IdentificationSettings, source,
+                      splits: _Splits, settings: IdentificationSettings, source,
                       progress: bool, log):
     """Step 3: select, fit and validate each coefficient's model (one BLAS thread: many
     small factorisations), the coefficients in parallel processes when ``workers``
-    allow (each search is independent; results are identical to a serial run)."""
+    allow (each search is independent; results are identical to a serial run). A
+    coefficient with a validation maneuver of its own (``splits.own``) is identified without
+    it and validated on it too; its model's output there goes to ``ident``."""
     results, notes = {}, []
     coefs = tuple(settings.coefficients)
+    frames = {c: splits.of(c, ident, valid, columns) for c in coefs}
     has_truth = all(f"true_{c}" in valid.columns for c in coefs)
     workers = min(len(coefs), settings.workers or os.cpu_count() or 1)
     bar = _bar(len(coefs), progress)
@@ -787,8 +864,9 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         # only what the fits read travels to the workers
         keep = set(columns) | set(coefs) | {f"true_{c}" for c in coefs} \
             | {"maneuver", "maneuver_type", "t"}
-        ident_w = ident[[k for k in ident.columns if k in keep]]
-        valid_w = valid[[k for k in valid.columns if k in keep]]
+
+        def slim(frame):
+            return frame[[k for k in frame.columns if k in keep]]
         ctx = multiprocessing.get_context("spawn")
         # one process per coefficient (up to 3 per worker), ``workers`` of them computing
         # at once, trial by trial (simplexspline._compute_slots): which search is long is
@@ -800,21 +878,31 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         gate = ctx.Semaphore(workers) if procs > workers else None
         with ProcessPoolExecutor(max_workers=procs, mp_context=ctx,
                                  initializer=init_worker, initargs=(gate,)) as pool:
-            futures = {pool.submit(_identify_in_worker, c, structures[c], ident_w, valid_w,
-                                   columns, coverage, settings, has_truth, source): c
+            futures = {pool.submit(_identify_in_worker, c, structures[c],
+                                   slim(frames[c][0]), slim(frames[c][1]), *frames[c][2:],
+                                   settings, has_truth, source): c
                        for c in order}
             for fut in as_completed(futures):
                 done(futures[fut], fut.result())
     else:
         with kernels.one_blas_thread():
             for c in coefs:
-                done(c, _identify_one(c, structures[c], ident, valid, columns, coverage,
-                                      settings, has_truth, source))
+                done(c, _identify_one(c, structures[c], *frames[c], settings, has_truth,
+                                      source))
     for c in coefs:          # in coefficient order, however the workers finished
         res, pred_v, new_notes, to_warn = outcomes[c]
         results[c] = res
-        valid[f"model_{c}"] = pred_v
-        valid[f"inside_{c}"] = _covered(res.model, valid, valid["inside_envelope"].to_numpy())
+        valid_c = frames[c][1]
+        inside = _covered(res.model, valid_c, valid_c["inside_envelope"].to_numpy())
+        n = len(valid)
+        valid[f"model_{c}"] = pred_v[:n]
+        valid[f"inside_{c}"] = inside[:n]
+        if c in splits.own:
+            mine = ident["maneuver"].to_numpy() == splits.own[c]
+            ident[f"model_{c}"] = np.where(mine, np.nan, 0.0)
+            ident.loc[mine, f"model_{c}"] = pred_v[n:]
+            ident[f"inside_{c}"] = False
+            ident.loc[mine, f"inside_{c}"] = inside[n:]
         notes.extend(new_notes)
         for msg in to_warn:
             warnings.warn(msg, ThinDataWarning, stacklevel=3)
@@ -842,11 +930,12 @@ def _extrapolation_note(c: str, v_scores: Mapping, maneuvers: np.ndarray,
             "conditions or hold out fewer (validation_fraction)")
 
 
-def _record_provenance(results: Mapping, ident, meta: dict,
+def _record_provenance(results: Mapping, out: Identification, meta: dict,
                        settings: IdentificationSettings, prov: dict) -> None:
     """Step 4: what each model file keeps of the run (settings, medians, geometry,
     validation scores)."""
-    for res in results.values():
+    for c, res in results.items():
+        ident = out.identification_of(c)
         res.model.provenance.update({"software": prov["software"],
                                      "settings": settings.to_dict(),
                                      "medians": {v: float(np.median(ident[v].to_numpy(

@@ -438,7 +438,11 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
     blocks += _table_section(identification)
     blocks += _data_section(ident, valid, types, slot)
     for c, res in identification.results.items():
-        blocks += _coefficient_section(c, res, identification, ident, valid, slot)
+        own = getattr(identification, "own_validation", {}) or {}
+        blocks += _coefficient_section(
+            c, res, identification,
+            _plain(identification.identification_of(c)) if c in own else ident,
+            _plain(identification.validation_of(c)) if c in own else valid, slot)
     blocks += _derivative_section({c: res.model for c, res in identification.results.items()},
                                   ident, slot)
 

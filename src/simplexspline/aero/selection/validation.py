@@ -6,14 +6,16 @@ The paper's Eq. 54-55 lost the square root in typesetting: here
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from simplexspline.aero.selection.coverage import threshold
 from simplexspline.errors import InputError
 
-__all__ = ["CONDITION_KEEP", "COVERED_KEEP", "EXCITED", "PAPER_TABLE2", "autocorrelation",
-           "covered_in_fold", "fold_by_maneuver", "scores", "scores_by_coverage",
-           "split_by_maneuver"]
+__all__ = ["CONDITION_KEEP", "COVERED_KEEP", "EXCITED", "PAPER_TABLE2", "TOP_UP_GAIN",
+           "ValidationSplit", "autocorrelation", "covered_in_fold", "fold_by_maneuver",
+           "scores", "scores_by_coverage", "split_by_maneuver", "validation_split"]
 
 #: Fraction of each flight condition's samples that stays for identification when
 #: validation maneuvers are held out (and in the training folds of a scored
@@ -28,18 +30,70 @@ COVERED_KEEP = 0.9
 #: this fraction of the largest over the maneuvers (:func:`split_by_maneuver`).
 EXCITED = 1.0 / 3.0
 
+#: A signal that no validation maneuver excites gets a maneuver of its own (held out for it
+#: alone: :func:`validation_split`) only when that maneuver moves it at least this many
+#: times more than the validation does.
+TOP_UP_GAIN = 3.0
+
 #: Validation relative RMS of the paper's Table 2 (Cessna Citation II, fractions).
 PAPER_TABLE2 = {"CX": 0.0693, "CZ": 0.0260, "Cl": 0.0170, "Cm": 0.0172, "Cn": 0.0472}
 
 
-def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: int = 0,
-                      groups: np.ndarray | None = None,
-                      conditions: np.ndarray | None = None,
-                      keep: float = CONDITION_KEEP, cells: np.ndarray | None = None,
-                      covered_keep: float = COVERED_KEEP,
-                      excitation: np.ndarray | None = None,
-                      ranges: np.ndarray | None = None,
-                      motion: np.ndarray | None = None) -> np.ndarray:
+@dataclass(frozen=True)
+class ValidationSplit:
+    """Whole maneuvers held out for validation (:func:`validation_split`).
+
+    Attributes
+    ----------
+    validation : ndarray of bool, shape (N,)
+        True for the samples of the maneuvers held out for every signal.
+    added : tuple
+        Per ``excitation`` signal (column), a maneuver id held out for that signal alone,
+        or None: the shared validation does not excite the signal, and this maneuver,
+        which the rules allow, excites it at least :data:`TOP_UP_GAIN` times more while
+        identification keeps one at least half as exciting. A model of that signal is
+        identified without it and validated on it too; the other signals' models keep it.
+        Empty without ``excitation``.
+    """
+
+    validation: np.ndarray
+    added: tuple = ()
+
+    def validation_of(self, maneuvers: np.ndarray, j: int) -> np.ndarray:
+        """The validation samples of signal ``j``: the shared ones and its own maneuver's.
+
+        Parameters
+        ----------
+        maneuvers : ndarray, shape (N,)
+            Maneuver id per sample (as given to :func:`validation_split`).
+        j : int
+            Column of ``excitation``.
+        """
+        extra = self.added[j] if j < len(self.added) else None
+        if extra is None:
+            return self.validation
+        return self.validation | (np.asarray(maneuvers) == extra)
+
+
+def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, **rules) -> np.ndarray:
+    """The shared validation samples of :func:`validation_split` (same parameters).
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        True for validation samples.
+    """
+    return validation_split(maneuvers, fraction, **rules).validation
+
+
+def validation_split(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: int = 0,
+                     groups: np.ndarray | None = None,
+                     conditions: np.ndarray | None = None,
+                     keep: float = CONDITION_KEEP, cells: np.ndarray | None = None,
+                     covered_keep: float = COVERED_KEEP,
+                     excitation: np.ndarray | None = None,
+                     ranges: np.ndarray | None = None,
+                     motion: np.ndarray | None = None) -> ValidationSplit:
     """Choose whole maneuvers for validation.
 
     Parameters
@@ -84,6 +138,15 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
         excite a signal. A record of a few maneuvers of one kind each (a short period, a
         Dutch roll, a roll) otherwise validated its roll model on a pitch maneuver: R^2
         below zero, measuring the noise.
+
+        A signal that the shared validation still does not excite (every exciting maneuver
+        refused by the rules) gets a maneuver of its own (``added``): the one that moves
+        it most among those the rules allow, exciting or not, if it moves it at least
+        :data:`TOP_UP_GAIN` times more than the validation does and identification keeps
+        a maneuver at least half as exciting. On a flight-test course whose two elevator
+        doublets were each the only data at their angles of attack, Cm was validated on
+        stationary measurements and turns (R^2 -8.9: the noise and a bias); its own
+        maneuver is one of the two elevator pulses flown at one test point.
     ranges : ndarray, shape (N, m), optional
         Variables that a maneuver holds about constant and that change between maneuvers
         (the mass as fuel burns, the configuration): a maneuver is held out only while its
@@ -107,8 +170,7 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
 
     Returns
     -------
-    ndarray of bool, shape (N,)
-        True for validation samples.
+    ValidationSplit
     """
     maneuvers = np.asarray(maneuvers)
     if not 0.0 < fraction < 1.0:
@@ -146,14 +208,13 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
 
     sizes = np.bincount(labels)
 
-    def take(i) -> bool:
-        """Hold maneuver i out if its condition and cells allow it, identification keeps a
-        maneuver exciting every signal that it excites, and one of its kind when the
-        kind has several."""
-        nonlocal left
+    def allowed(i, held) -> bool:
+        """Whether maneuver i may join ``held`` (maneuver ids) in the validation: its
+        condition and cells allow it, identification keeps a maneuver exciting every signal
+        that it excites, and one of its kind when the kind has several."""
         if counts[i] > room[cond[i]]:
             return False
-        rest = ~np.isin(ids, chosen)          # the maneuvers identification would keep
+        rest = ~np.isin(ids, held)           # the maneuvers identification would keep
         rest[i] = False
         if sizes[labels[i]] > 1 and not np.any(rest & (labels == labels[i])):
             return False
@@ -176,7 +237,15 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
             hit = own[i] > 0
             if own[i][hit & (after >= min_count)].sum() < covered_keep * counts[i]:
                 return False
-            left = after
+        return True
+
+    def take(i) -> bool:
+        """Hold maneuver i out if :func:`allowed`."""
+        nonlocal left
+        if not allowed(i, chosen):
+            return False
+        if cells is not None:
+            left = left - own[i]
         room[cond[i]] -= counts[i]
         chosen.append(ids[i])
         return True
@@ -206,7 +275,9 @@ def split_by_maneuver(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: in
     chosen = set(chosen)
     if len(chosen) == len(ids):
         chosen.discard(next(iter(chosen)))
-    return np.isin(maneuvers, list(chosen))
+    chosen = list(chosen)
+    added = () if spread is None else _top_up(ids, spread, level, chosen, allowed)
+    return ValidationSplit(np.isin(maneuvers, chosen), added)
 
 
 def _quotas(sizes: np.ndarray, fraction: float, rng: np.random.Generator) -> np.ndarray:
@@ -283,6 +354,33 @@ def _cover_excitation(ids: np.ndarray, spread: np.ndarray, level: np.ndarray, ch
                 continue
             if take(i):
                 break
+
+
+def _top_up(ids: np.ndarray, spread: np.ndarray, level: np.ndarray, chosen: list,
+            allowed) -> tuple:
+    """Per signal, the maneuver held out for it alone, or None (:class:`ValidationSplit`,
+    ``added``); ``allowed(i, held)`` applies the split's rules."""
+    held = np.isin(ids, chosen)
+    out = []
+    for j in range(spread.shape[1]):
+        col = spread[:, j]
+        pick = None
+        if np.isfinite(level[j]) and not np.any(held & (col >= level[j])):
+            shown = max(0.0, float(col[held].max())) if held.any() else 0.0
+            for i in np.argsort(-col):
+                if not col[i] > TOP_UP_GAIN * shown:
+                    break
+                if held[i]:
+                    continue
+                rest = ~held
+                rest[i] = False
+                if rest.sum() < 2 or col[rest].max() < 0.5 * col[i]:
+                    continue
+                if allowed(i, chosen):
+                    pick = ids[i].item() if hasattr(ids[i], "item") else ids[i]
+                    break
+        out.append(pick)
+    return tuple(out)
 
 
 def fold_by_maneuver(maneuvers: np.ndarray, k: int, *, seed: int = 0,
