@@ -9,11 +9,13 @@ from hypothesis import strategies as st
 
 from simplexspline.aero.selection.validation import (
     CONDITION_KEEP,
+    TOP_UP_GAIN,
     autocorrelation,
     covered_in_fold,
     fold_by_maneuver,
     scores,
     split_by_maneuver,
+    validation_split,
 )
 from simplexspline.errors import InputError
 
@@ -220,6 +222,60 @@ def test_a_signal_only_one_maneuver_moves_stays_in_identification():
     for seed in range(8):
         val = split_by_maneuver(man, 0.25, seed=seed, groups=kind, excitation=signals)
         assert 4 not in np.unique(man[val])         # the only maneuver that moves signal 1
+
+
+def _refused_exciters(weak: float, n=200):
+    """Ten maneuvers, each of its own kind, flown from full to empty tanks. Signal 0
+    moves in all of them but 0 and 9; signal 1 moves strongly in 0 and 9 only (the
+    heaviest and the lightest, which the mass rule keeps for identification) and by
+    ``weak`` in 4 and 5; noise 0.01 everywhere."""
+    rng = np.random.default_rng(7)
+    man = np.repeat(np.arange(10), n)
+    t = np.tile(np.arange(n) * 0.1, 10)
+    signals = 0.01 * rng.standard_normal((man.size, 2))
+    wave = np.sqrt(2.0) * np.sin(2 * np.pi * 0.5 * t)
+    for m in range(1, 9):
+        signals[man == m, 0] += wave[man == m]
+    for m, amp in ((0, 1.0), (9, 1.0), (4, weak), (5, weak)):
+        signals[man == m, 1] += amp * wave[man == m]
+    mass = np.repeat(np.linspace(9000.0, 8000.0, 10), n)[:, None]
+    return man, signals, mass
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_signal_the_rules_leave_unexcited_gets_a_maneuver_of_its_own(seed):
+    """Every maneuver that excites signal 1 is refused (the mass range), so the shared
+    validation does not move it: it gets one of the two weaker maneuvers that do, held
+    out for it alone, the other staying for identification; the shared split is
+    untouched and signal 0 (excited in it) gets none."""
+    man, signals, mass = _refused_exciters(weak=0.2)
+    split = validation_split(man, 0.25, seed=seed, excitation=signals, ranges=mass)
+    np.testing.assert_array_equal(split.validation, split_by_maneuver(
+        man, 0.25, seed=seed, excitation=signals, ranges=mass))
+    held = set(np.unique(man[split.validation]).tolist())
+    assert not held & {0, 9}
+    assert split.added[0] is None
+    if held & {4, 5}:                   # the draw took one: signal 1 moves in validation
+        assert split.added[1] is None
+    else:
+        assert split.added[1] in (4, 5)
+        own = set(np.unique(man[split.validation_of(man, 1)]).tolist())
+        assert own == held | {split.added[1]}
+        np.testing.assert_array_equal(split.validation_of(man, 0), split.validation)
+    assert any(validation_split(man, 0.25, seed=s, excitation=signals, ranges=mass).added[1]
+               is not None for s in range(8))
+
+
+def test_a_maneuver_of_its_own_must_move_the_signal_well_beyond_the_validation():
+    """Moving signal 1 only about twice as much as the noise of the shared validation,
+    the weaker maneuvers are not worth taking from identification (TOP_UP_GAIN = 3)."""
+    assert TOP_UP_GAIN == 3.0
+    man, signals, mass = _refused_exciters(weak=0.02)
+    for seed in range(8):
+        split = validation_split(man, 0.25, seed=seed, excitation=signals, ranges=mass)
+        assert split.added == (None, None)
+    # without excitation signals there is nothing to add
+    assert validation_split(man, 0.25, seed=0).added == ()
 
 
 @pytest.mark.parametrize("seed", range(8))
