@@ -30,7 +30,8 @@ from simplexspline.aero.modelling.notation import format_multiplier, parse_multi
 from simplexspline.aero.modelling.structure import Structure
 from simplexspline.spline.bform import bnet_points
 
-__all__ = ["PRIOR_DEGREES", "PRIOR_WEIGHT", "coarse_structure", "virtual_samples"]
+__all__ = ["PRIOR_DEGREES", "PRIOR_WEIGHT", "coarse_structure", "interior_points",
+           "virtual_samples"]
 
 #: Weight of a virtual sample relative to the mean weight of the real ones.
 PRIOR_WEIGHT = 0.01
@@ -54,6 +55,16 @@ def coarse_structure(structure: Structure, degree: int = 3) -> Structure:
     mult = tuple(format_multiplier(*parse_multiplier(m)[:2]) for m in structure.multipliers)
     return Structure(structure.coefficient, structure.variables, degree, min(1, degree - 1),
                      (1,) * structure.ndim, mult, cellwise=structure.cellwise)
+
+
+def interior_points(triangulation, degree: int) -> np.ndarray:
+    """Points strictly inside every simplex: its B-net of ``degree`` pulled towards the
+    centroid (:data:`_SHRINK`), shape (nsimplex * points per simplex, n), scaled
+    coordinates; each locates in its own simplex."""
+    verts = np.asarray(triangulation.vertices)[np.asarray(triangulation.simplices)]
+    pts = bnet_points(verts, degree)
+    centre = pts.mean(axis=1, keepdims=True)
+    return (centre + _SHRINK * (pts - centre)).reshape(-1, verts.shape[-1])
 
 
 def virtual_samples(structure: Structure, triangulation, schedule_scaling, mscale,
@@ -82,10 +93,7 @@ def virtual_samples(structure: Structure, triangulation, schedule_scaling, mscal
     y : ndarray, shape (M,)
         The coarse model's value of that term at the point.
     """
-    verts = np.asarray(triangulation.vertices)[np.asarray(triangulation.simplices)]
-    pts = bnet_points(verts, structure.degree + 1)
-    centre = pts.mean(axis=1, keepdims=True)
-    zu = (centre + _SHRINK * (pts - centre)).reshape(-1, structure.ndim)
+    zu = interior_points(triangulation, structure.degree + 1)
     phys = schedule_scaling.inverse(zu)
     zc = np.clip(coarse.schedule_scaling.transform(phys), 0.0, 1.0)
     if not structure.varying:

@@ -45,6 +45,7 @@ from simplexspline.aero.selection.moves import (
     kinked_variable,
     neighbours,
 )
+from simplexspline.aero.modelling.term_hold import HOLD_WEIGHT, excited_boxes, hold_samples
 from simplexspline.aero.modelling.prior import (
     PRIOR_DEGREES,
     PRIOR_WEIGHT,
@@ -158,6 +159,14 @@ class SelectionSettings:
         their training folds (:func:`in_training_box`), as validation scores only inside
         the model's identified box. Same benchmark: 89 on target, 0.530; off by default for
         the same reason.
+    hold_terms : bool
+        In the final fit, hold every term's coefficient outside the box of the scheduling
+        variables where the data excite the term at its value on that box
+        (:mod:`~simplexspline.aero.modelling.term_hold`): a derivative stays what it was
+        where it was last measured instead of following its polynomial's continuation.
+        The cross-validation of the search does not do it (it predicts held-out maneuvers
+        inside the training folds' excitation, mostly). See the module for the measured
+        effect.
     place_kinks : bool
         Move every kink the search accepts to where the fit's squared error is least
         (:func:`~simplexspline.aero.selection.kink_location.place_kink`: up to 17 fits of
@@ -190,6 +199,7 @@ class SelectionSettings:
     combine: int = 3
     cv_average: str = "sample"
     cv_box: bool = False
+    hold_terms: bool = True
     place_kinks: bool = False
 
     def __post_init__(self):
@@ -347,6 +357,18 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
         prov["prior"] = {"structure": cs.label(), "degree": prior_degree,
                          "weight": settings.prior_weight}
     spline = _solve(space, ne, ridge, settings.smoothing)
+    if settings.hold_terms and structure.varying:
+        boxes = excited_boxes(structure, u[keep], m[keep])
+        zh, mh, yh = hold_samples(structure, space.triangulation, boxes, spline)
+        if len(yh):
+            wbar = 1.0 if w is None else float(np.mean(w[keep]))
+            ne.merge(accumulate(space, zh, mh, yh, np.full(len(yh), HOLD_WEIGHT * wbar)))
+            spline = _solve(space, ne, ridge, settings.smoothing)
+            sched = scaling.subset(structure.variables)
+            prov["held_terms"] = {
+                name: {"lower": sched.inverse(box[0][None])[0].tolist(),
+                       "upper": sched.inverse(box[1][None])[0].tolist()}
+                for name, box in zip(structure.multipliers, boxes) if box is not None}
     prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
                 counts=counts.tolist(), nbasis=structure.nbasis,
                 nsimplex=space.triangulation.nsimplex,
