@@ -1,0 +1,89 @@
+"""Coefficients held beyond the data that excite their term (modelling/term_hold.py)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from simplexspline.aero.config import parse_structure
+from simplexspline.aero.modelling.term_hold import TERM_EXCITED, excited_boxes
+from simplexspline.aero.selection.search import SelectionSettings, fit_structure
+
+
+def _course(rng, n=6000, *, edge=0.6, noise=1e-4):
+    """Mach 0.3-0.9 flown throughout with the elevator moving; the roll rate moves only
+    below Mach ``edge`` (the lateral inputs of a course flown at its slower test points).
+    The true roll damping varies mildly with Mach."""
+    mach = rng.uniform(0.3, 0.9, n)
+    de = 0.05 * rng.standard_normal(n)
+    phat = np.where(mach < edge, 0.02 * rng.standard_normal(n),
+                    1e-5 * rng.standard_normal(n))
+    y = 0.01 - 0.2 * de + _true_damping(mach) * phat + noise * rng.standard_normal(n)
+    return {"mach": mach, "de": de, "phat": phat}, y
+
+
+def _true_damping(mach):
+    return -(0.4 + 0.1 * (mach - 0.45))
+
+
+def _roll_damping(model, mach):
+    """The model's dCl/dphat at the given Mach numbers (finite difference)."""
+    base = {"mach": mach, "de": np.zeros_like(mach), "phat": np.zeros_like(mach)}
+    up = dict(base, phat=np.full_like(mach, 0.01))
+    return (model.predict(up) - model.predict(base)) / 0.01
+
+
+def test_boxes_cover_where_a_term_moves():
+    rng = np.random.default_rng(0)
+    cols, _ = _course(rng)
+    s = parse_structure("Cl(mach | 1, de, phat) S^1_3")
+    z = ((cols["mach"] - 0.3) / 0.6)[:, None]
+    m = np.column_stack([np.ones_like(z[:, 0]), cols["de"] / 0.05, cols["phat"] / 0.014])
+    boxes = excited_boxes(s, z, m)
+    assert boxes[0] is None                 # the constant term
+    assert boxes[1] is None                 # de moves throughout
+    lo, hi = boxes[2]
+    assert lo[0] == pytest.approx(0.0, abs=0.01)
+    assert hi[0] == pytest.approx(0.5, abs=0.01)    # Mach 0.6
+    assert 0.0 < TERM_EXCITED < 1.0
+
+
+def test_a_derivative_is_held_beyond_the_data_that_excite_it():
+    """Rolls flown below Mach 0.4 only, noisy: unheld, the roll damping above is the
+    continuation of a cubic and strays by up to 0.2-0.7 /rad at Mach 0.9 (the truth
+    moves by 0.05 there); held, it stays at its value at Mach 0.4, on every draw. Where the
+    rolls were flown, both fits agree with the truth."""
+    s = parse_structure("Cl(mach | 1, de, phat) S^1_3")
+    far = np.array([0.6, 0.7, 0.8, 0.9])
+    near = np.array([0.31, 0.35, 0.39])
+    worst_held = worst_free = 0.0
+    for seed in range(5):
+        cols, y = _course(np.random.default_rng(seed), edge=0.4, noise=1e-3)
+        held = fit_structure(s, cols, y, SelectionSettings())
+        free = fit_structure(s, cols, y, replace(SelectionSettings(), hold_terms=False))
+        bounds = held.provenance["held_terms"]
+        assert set(bounds) == {"phat"}
+        assert bounds["phat"]["upper"][0] == pytest.approx(0.4, abs=0.01)
+        assert "held_terms" not in free.provenance
+        edge = _roll_damping(held, np.array([0.4]))[0]
+        np.testing.assert_allclose(_roll_damping(held, far), edge, atol=0.015)
+        worst_held = max(worst_held, np.abs(_roll_damping(held, far) - _true_damping(far)).max())
+        worst_free = max(worst_free, np.abs(_roll_damping(free, far) - _true_damping(far)).max())
+        for model in (held, free):
+            np.testing.assert_allclose(_roll_damping(model, near), _true_damping(near),
+                                       atol=6e-3)
+    assert worst_held < 0.07
+    assert worst_free > 0.2
+
+
+def test_terms_excited_throughout_are_fitted_as_before():
+    rng = np.random.default_rng(2)
+    cols, y = _course(rng)
+    cols["phat"] = 0.02 * rng.standard_normal(len(y))       # rolls at every Mach number
+    s = parse_structure("Cl(mach | 1, de, phat) S^1_3")
+    held = fit_structure(s, cols, y, SelectionSettings())
+    free = fit_structure(s, cols, y, replace(SelectionSettings(), hold_terms=False))
+    assert "held_terms" not in held.provenance
+    np.testing.assert_array_equal(held.spline.coefficients, free.spline.coefficients)
