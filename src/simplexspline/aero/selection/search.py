@@ -165,7 +165,8 @@ class SelectionSettings:
         (:mod:`~simplexspline.aero.modelling.term_hold`): a derivative stays what it was
         where it was last measured instead of following its polynomial's continuation.
         The cross-validation of the search does not do it (it predicts held-out maneuvers
-        inside the training folds' excitation, mostly). See the module for the measured
+        inside the training folds' excitation, mostly); every :func:`fit_structure` does
+        (the screening of moves, the coarse prior). See the module for the measured
         effect.
     place_kinks : bool
         Move every kink the search accepts to where the fit's squared error is least
