@@ -164,10 +164,10 @@ class SelectionSettings:
         variables where the data excite the term at its value on that box
         (:mod:`~simplexspline.aero.modelling.term_hold`): a derivative stays what it was
         where it was last measured instead of following its polynomial's continuation.
-        The cross-validation of the search does not do it (it predicts held-out maneuvers
-        inside the training folds' excitation, mostly); every :func:`fit_structure` does
-        (the screening of moves, the coarse prior). See the module for the measured
-        effect.
+        The search does not do it (its cross-validation predicts held-out maneuvers
+        mostly inside the training folds' excitation, and its screening of moves and
+        placing of kinks need residuals where the data are); the final fit and its
+        coarse prior do. See the module for the measured effect.
     place_kinks : bool
         Move every kink the search accepts to where the fit's squared error is least
         (:func:`~simplexspline.aero.selection.kink_location.place_kink`: up to 17 fits of
@@ -730,7 +730,7 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
     kinks = kink_positions(cols, available) if "kinks" in settings.moves else None
     score.place = None
     if kinks and settings.place_kinks:
-        plain = replace(settings, prior=None)
+        plain = replace(settings, prior=None, hold_terms=False)
 
         def sse(s: Structure) -> float:
             try:
@@ -776,7 +776,9 @@ def screen_moves(best: Structure, moves: list, columns: Mapping, y: np.ndarray,
     if not any(len(r) > settings.screen for r in ranked.values()):
         return moves
     try:
-        model = fit_structure(best, columns, y, replace(settings, prior=None))
+        # residuals where the data are: the hold of unexcited terms does not matter here
+        model = fit_structure(best, columns, y, replace(settings, prior=None,
+                                                        hold_terms=False))
     except SimplexSplineError:
         return moves
     resid = y - model.predict(columns)
