@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -87,3 +88,24 @@ def test_terms_excited_throughout_are_fitted_as_before():
     free = fit_structure(s, cols, y, replace(SelectionSettings(), hold_terms=False))
     assert "held_terms" not in held.provenance
     np.testing.assert_array_equal(held.spline.coefficients, free.spline.coefficients)
+
+
+def test_identify_says_which_derivatives_are_held():
+    """identify names the held terms and the ranges where the data excite them."""
+    from simplexspline.aero.identify import IdentificationSettings, identify
+
+    from .synthetic import synthetic_table
+
+    rng = np.random.default_rng(3)
+    cols, y = _course(rng, n=4000, edge=0.5, noise=1e-3)
+    table = synthetic_table(10, 400)
+    for k, v in cols.items():
+        table[k] = v
+    table["Cl"] = y
+    res = identify(table, settings=IdentificationSettings(
+        coefficients=("Cl",), select=False, workers=1,
+        structures={"Cl": parse_structure("Cl(mach | 1, de, phat) S^1_3")}))
+    note = next(w for w in res.warnings if "held" in w)
+    assert note.startswith("Cl: the data excite some terms only in part of the envelope")
+    assert re.search(r"phat \(mach 0\.30\d*\.\.0\.(49|50)\d*\)", note)
+    assert "held_terms" in res.results["Cl"].model.provenance

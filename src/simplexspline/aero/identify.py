@@ -1081,6 +1081,9 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
         # in the model file too: the derivatives command names the slope it cannot give
         model.provenance["not_identified"] = {left_out["variable"]: {
             k: left_out[k] for k in ("vif", "partner", "correlation")}}
+    held = model.provenance.get("held_terms")
+    if held:
+        notes.append(_held_note(c, held, model.structure.variables))
     counts = np.asarray(model.provenance["counts"])
     thin = np.nonzero(counts < settings.thin_factor * best.ncoef_per_simplex)[0]
     if len(thin):
@@ -1102,6 +1105,19 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     result = CoefficientResult(model, v_scores, i_scores, history, counts, thin, seconds,
                                diagnostics)
     return result, pred_v, notes, warn
+
+
+def _held_note(c: str, held: Mapping, variables) -> str:
+    """The note on a model's terms held outside where the data excite them."""
+    parts = []
+    for term, box in held.items():
+        ranges = ", ".join(f"{v} {lo:.4g}..{hi:.4g}" for v, lo, hi in
+                           zip(variables, box["lower"], box["upper"]))
+        parts.append(f"{term} ({ranges})")
+    return (f"{c}: the data excite some terms only in part of the envelope; their "
+            f"derivatives are held at their values there beyond it: {'; '.join(parts)} "
+            "(model provenance 'held_terms'); fly those inputs at more test points to "
+            "measure them")
 
 
 def _flow_angle_left_out(c: str, columns: Mapping, inputs: list, residual: np.ndarray,
