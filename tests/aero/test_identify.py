@@ -508,6 +508,7 @@ def test_a_coefficient_the_shared_validation_does_not_excite_is_validated_on_its
         # Cm is scored on its own maneuver too: the model's output is there
         mine = res.identification["maneuver"].to_numpy() == m
         assert np.isfinite(res.identification.loc[mine, "model_Cm"]).all()
+        assert res.identification.loc[~mine, "model_Cm"].isna().all()
         assert res.results["Cm"].validation["r2"] > 0.9
         summary = res.summary()
         assert summary["own_validation_maneuvers"] == {"Cm": m}

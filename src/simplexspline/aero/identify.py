@@ -899,7 +899,7 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         valid[f"inside_{c}"] = inside[:n]
         if c in splits.own:
             mine = ident["maneuver"].to_numpy() == splits.own[c]
-            ident[f"model_{c}"] = np.where(mine, np.nan, 0.0)
+            ident[f"model_{c}"] = np.nan
             ident.loc[mine, f"model_{c}"] = pred_v[n:]
             ident[f"inside_{c}"] = False
             ident.loc[mine, f"inside_{c}"] = inside[n:]
