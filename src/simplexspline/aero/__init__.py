@@ -50,7 +50,7 @@ from simplexspline.aero.reconstruction.reconstruct import (
 from simplexspline.aero.selection.search import SelectionSettings, select_structure
 from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import Scaling, Structure
-from simplexspline.aero.selection.validation import scores, split_by_maneuver
+from simplexspline.aero.selection.validation import scores, split_by_maneuver, validation_split
 
 __all__ = [
     "FLIGHT_DATA_COLUMNS",
@@ -90,5 +90,6 @@ __all__ = [
     "select_structure",
     "split_by_maneuver",
     "validate_flight_data",
+    "validation_split",
     "write_flight_data",
 ]
