@@ -90,8 +90,9 @@ def test_terms_excited_throughout_are_fitted_as_before():
     np.testing.assert_array_equal(held.spline.coefficients, free.spline.coefficients)
 
 
-def test_identify_says_which_derivatives_are_held():
-    """identify names the held terms and the ranges where the data excite them."""
+def test_identify_says_which_derivatives_are_held(tmp_path, capsys):
+    """identify names the held terms and the ranges where the data excite them; so does
+    the derivatives command, from the model file."""
     from simplexspline.aero.identify import IdentificationSettings, identify
 
     from .synthetic import synthetic_table
@@ -109,3 +110,10 @@ def test_identify_says_which_derivatives_are_held():
     assert note.startswith("Cl: the data excite some terms only in part of the envelope")
     assert re.search(r"phat \(mach 0\.30\d*\.\.0\.(49|50)\d*\)", note)
     assert "held_terms" in res.results["Cl"].model.provenance
+    from simplexspline.cli import main
+
+    path = res.results["Cl"].model.save(tmp_path / "Cl.json")
+    assert main(["derivatives", str(path), "-o", str(tmp_path / "d.csv"),
+                 "--alpha=0.05,0.1"]) == 0
+    assert re.search(r"Cl: the derivatives of its phat term were measured only at mach "
+                     r"0\.30\d*\.\.0\.(49|50)\d*; beyond, they are held", capsys.readouterr().out)

@@ -312,6 +312,11 @@ def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) 
             print(f"  {c}_{v} is not identified: the identification data could not tell {v} "
                   f"from {why.get('partner')} (VIF {float(why.get('vif', math.nan)):.0f}), and "
                   f"the model does not take {v}; its 0 is not a measurement")
+        for term, box in (model.provenance.get("held_terms") or {}).items():
+            where = ", ".join(f"{v} {_show(v, lo)}..{_show(v, hi)}" for v, lo, hi in
+                              zip(model.schedule, box["lower"], box["upper"]))
+            print(f"  {c}: the derivatives of its {term} term were measured only at {where};"
+                  " beyond, they are held at their values there")
         frac = float(np.mean(table[f"inside_{c}"]))
         if frac < 1:
             print(f"  {c}: {100 * (1 - frac):.0f} % of the conditions lie outside the "
