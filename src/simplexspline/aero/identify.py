@@ -268,19 +268,14 @@ class Identification:
         """The samples coefficient ``c``'s model was identified on (pandas.DataFrame)."""
         if c not in self.own_validation:
             return self.identification
-        ident = self.identification
-        return ident.loc[ident["maneuver"].to_numpy() != self.own_validation[c]]
+        return _moved(self.identification, self.validation, self.own_validation[c])[0]
 
     def validation_of(self, c: str):
         """The samples coefficient ``c``'s model was validated on (pandas.DataFrame): the
         shared validation maneuvers and its own (``own_validation``), if any."""
         if c not in self.own_validation:
             return self.validation
-        import pandas as pd  # optional dependency (the 'aero' extra)
-
-        ident = self.identification
-        own = ident.loc[ident["maneuver"].to_numpy() == self.own_validation[c]]
-        return pd.concat([self.validation, own])
+        return _moved(self.identification, self.validation, self.own_validation[c])[1]
 
     @property
     def has_truth(self) -> bool:
@@ -778,17 +773,24 @@ class _Splits:
         validation (coverage recomputed against the identification left)."""
         if c not in self.own:
             return ident, valid, columns, self.coverage
-        import pandas as pd  # optional dependency (the 'aero' extra)
-
-        mine = ident["maneuver"].to_numpy() == self.own[c]
+        ident_c, valid_c, mine = _moved(ident, valid, self.own[c])
         cov = self.coverage
         cells_i = cov.ident_cells[~mine]
         cells_v = np.concatenate([cov.valid_cells, cov.ident_cells[mine]])
         covered = cov.envelope.covered(cells_v, cov.envelope.counts(cells_i))
-        valid_c = pd.concat([valid, ident.loc[mine]])
         valid_c["inside_envelope"] = covered
-        return (ident.loc[~mine], valid_c, {k: v[~mine] for k, v in columns.items()},
+        return (ident_c, valid_c, {k: v[~mine] for k, v in columns.items()},
                 _Coverage(cells_i, covered, cells_v, cov.envelope))
+
+
+def _moved(ident, valid, maneuver) -> tuple:
+    """``maneuver`` moved from the identification frame to the end of the validation
+    frame: (identification without it, validation with it, mask of its rows in
+    ``ident``)."""
+    import pandas as pd  # optional dependency (the 'aero' extra)
+
+    mine = ident["maneuver"].to_numpy() == maneuver
+    return ident.loc[~mine], pd.concat([valid, ident.loc[mine]]), mine
 
 
 def _split(data, settings: IdentificationSettings, log):

@@ -348,11 +348,11 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
                      None if w is None else w[keep])
     prov = dict(provenance or {})
     counts = ne.counts.copy()          # real samples (before any virtual ones are added)
+    wbar = float(np.mean(w[keep])) if w is not None and keep.any() else 1.0  # one real sample
     if use_prior:
         cs = coarse_structure(structure, prior_degree)
         coarse = fit_structure(cs, columns, y, replace(PLAIN_FIT, min_points=min_points,
                                                         ridge=ridge), weights=w)
-        wbar = 1.0 if w is None else float(np.mean(w[keep]))
         ne.merge(_prior_equations(structure, space, scaling, mscale, coarse,
                                   settings.prior_weight * wbar))
         prov["prior"] = {"structure": cs.label(), "degree": prior_degree,
@@ -362,7 +362,6 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
         boxes = excited_boxes(structure, u[keep], m[keep])
         zh, mh, yh = hold_samples(structure, space.triangulation, boxes, spline)
         if len(yh):
-            wbar = 1.0 if w is None else float(np.mean(w[keep]))
             ne.merge(accumulate(space, zh, mh, yh, np.full(len(yh), HOLD_WEIGHT * wbar)))
             spline = _solve(space, ne, ridge, settings.smoothing)
             sched = scaling.subset(structure.variables)
