@@ -438,11 +438,11 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
     blocks += _table_section(identification)
     blocks += _data_section(ident, valid, types, slot)
     for c, res in identification.results.items():
-        own = getattr(identification, "own_validation", {}) or {}
+        own = c in identification.own_validation       # a validation maneuver of its own
         blocks += _coefficient_section(
             c, res, identification,
-            _plain(identification.identification_of(c)) if c in own else ident,
-            _plain(identification.validation_of(c)) if c in own else valid, slot)
+            _plain(identification.identification_of(c)) if own else ident,
+            _plain(identification.validation_of(c)) if own else valid, slot)
     blocks += _derivative_section({c: res.model for c, res in identification.results.items()},
                                   ident, slot)
 
