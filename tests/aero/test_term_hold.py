@@ -180,3 +180,23 @@ def test_a_terms_own_shape_does_not_hide_its_excitation():
     z = ((mach - 0.3) / 0.6)[:, None]
     m = np.column_stack([np.ones_like(mach), beta / 0.05, beta * np.abs(mach - 0.6) / 0.015])
     assert excited_boxes(s, z, m) == [None, None, None]
+
+
+def test_many_quieter_samples_excite_a_term_too():
+    """Flaps up, most of the flight is quiet and a fifth of it elevator inputs; flaps down,
+    a few inputs, larger. The flaps-up bin's partial standard deviation is 0.3 of the
+    flaps-down one's, but its sum of squares is larger: the elevator is excited at both
+    settings (an F-16 campaign had its CZ elevator derivative held over all its flaps-up
+    data)."""
+    rng = np.random.default_rng(5)
+    n_up, n_down = 20000, 2000
+    flap = np.concatenate([np.zeros(n_up), np.full(n_down, 0.26)])
+    quiet = rng.random(n_up) < 0.8
+    de = np.concatenate([np.where(quiet, 0.001, 0.02) * rng.standard_normal(n_up),
+                         0.03 * rng.standard_normal(n_down)])
+    s = parse_structure("CZ(flap | 1, de) S^1_3")
+    z = (flap / 0.26)[:, None]
+    m = np.column_stack([np.ones_like(de), de / 0.02])
+    up, down = (np.sqrt(np.mean(de[flap == v] ** 2)) for v in (0.0, 0.26))
+    assert up < TERM_EXCITED * down                  # by the partial std alone: not excited
+    assert excited_boxes(s, z, m) == [None, None]
