@@ -117,33 +117,33 @@ def excited_boxes(structure: Structure, z: np.ndarray, m: np.ndarray) -> list:
         width = hi_all[j] - lo_all[j]
         bins = np.zeros(n_samples, dtype=np.int64) if not width > 0 else np.minimum(
             ((z[:, j] - lo_all[j]) / width * BINS).astype(np.int64), BINS - 1)
-        resid = np.full((n_samples, n_terms), np.nan)
-        known = np.zeros(BINS, dtype=bool)
-        for b in range(BINS):
-            rows = np.flatnonzero(bins == b)
-            if len(rows) >= need and moving:
-                resid[np.ix_(rows, moving)] = _partial_residuals(m[np.ix_(rows, moving)],
-                                                                 others)
-                known[b] = True
+        counts = np.bincount(bins, minlength=BINS)
+        known = (counts >= need) & bool(moving)
+        resid = np.zeros((n_terms, n_samples))           # a term's row contiguous
+        order = np.argsort(bins, kind="stable")
+        starts = np.concatenate([[0], np.cumsum(counts)])
+        for b in np.flatnonzero(known):
+            rows = order[starts[b]:starts[b + 1]]
+            resid[np.ix_(moving, rows)] = _partial_residuals(m[np.ix_(rows, moving)],
+                                                             others).T
+        unknown = ~known[bins]
+        safe = np.maximum(counts, 1)
         for k in moving:
-            r = np.abs(resid[:, k])
-            part = np.zeros(BINS)                         # partial std per bin
-            info = np.zeros(BINS)                         # its sum of squares
-            for b in np.flatnonzero(known):
-                info[b] = np.sum(r[bins == b] ** 2)
-                part[b] = np.sqrt(info[b] / np.count_nonzero(bins == b))
+            r = np.abs(resid[k])
+            info = np.where(known, np.bincount(bins, r * r, minlength=BINS), 0.0)
+            part = np.sqrt(info / safe)                   # partial std per bin
             top = part.max()
             if not top > 0:
                 continue
             on = known & ((part >= TERM_EXCITED * top) | (info >= TERM_EXCITED * info.max()))
             # in an excited bin, the samples where the term moves (the bin's edge need
             # not be the excitation's)
-            with np.errstate(invalid="ignore"):
-                moves = on[bins] & (r >= TERM_EXCITED * part[bins])
+            moves = on[bins] & (r >= TERM_EXCITED * part[bins])
             on = _adjoining_unknown(on, known)
-            rows = moves | (on[bins] & ~known[bins])
+            rows = moves | (on[bins] & unknown)
             hit[k] = True
-            lo[k, j], hi[k, j] = z[rows, j].min(), z[rows, j].max()
+            zj = z[:, j][rows]
+            lo[k, j], hi[k, j] = zj.min(), zj.max()
     out = []
     for k in range(n_terms):
         if not hit[k]:
@@ -163,13 +163,13 @@ def _partial_residuals(x: np.ndarray, others: list) -> np.ndarray:
     scale = np.where(scale > 0, scale, 1.0)
     xs = x / scale
     g = xs.T @ xs / len(xs)                               # correlation matrix
-    out = x.copy()
+    # column k of ``xs @ w`` is column k less its least squares on ``others[k]``
+    w = np.eye(len(others))
     for k, rest in enumerate(others):
         if len(rest):
             sub = g[np.ix_(rest, rest)] + _RIDGE * np.eye(len(rest))
-            coef = np.linalg.solve(sub, g[rest, k])
-            out[:, k] = (xs[:, k] - xs[:, rest] @ coef) * scale[k]
-    return out
+            w[rest, k] = -np.linalg.solve(sub, g[rest, k])
+    return (xs @ w) * scale
 
 
 def _adjoining_unknown(on: np.ndarray, known: np.ndarray) -> np.ndarray:
