@@ -12,9 +12,9 @@ validation R^2 -642 (`bench_whole_flight.py --design eigenmotion --maneuvers 6`)
 
 Here every term's coefficient is **held** outside the box of the scheduling variables in
 which the term is excited (where it moves independently of the other terms:
-:func:`excited_boxes`): virtual samples at interior points of the triangulation outside that box
-ask ``c_k`` for its value at the nearest point of the box (the first fit's), as a table
-lookup holds its edge values. Where the term is excited the data decide; outside, the
+:func:`excited_boxes`): virtual samples at interior points of the triangulation outside
+that box ask ``c_k`` for its value at the nearest point of the box (the first fit's), as
+a table lookup holds its edge values. Where the term is excited the data decide; outside, the
 derivative stays what it was where it was last measured. A term excited everywhere gets
 no virtual samples, and neither does the constant term.
 """
