@@ -69,7 +69,7 @@ def test_a_derivative_is_held_beyond_the_data_that_excite_it():
         assert bounds["phat"]["upper"][0] == pytest.approx(0.4, abs=0.01)
         assert "held_terms" not in free.provenance
         edge = _roll_damping(held, np.array([0.4]))[0]
-        np.testing.assert_allclose(_roll_damping(held, far), edge, atol=0.015)
+        np.testing.assert_allclose(_roll_damping(held, far), edge, atol=0.02)
         worst_held = max(worst_held, np.abs(_roll_damping(held, far) - _true_damping(far)).max())
         worst_free = max(worst_free, np.abs(_roll_damping(free, far) - _true_damping(far)).max())
         for model in (held, free):
@@ -200,3 +200,30 @@ def test_many_quieter_samples_excite_a_term_too():
     up, down = (np.sqrt(np.mean(de[flap == v] ** 2)) for v in (0.0, 0.26))
     assert up < TERM_EXCITED * down                  # by the partial std alone: not excited
     assert excited_boxes(s, z, m) == [None, None]
+
+
+def _two_speed_rolls(rng, amplitude, n=8000):
+    """Rolls at full amplitude below Mach 0.5, and in 3 % of the samples above at
+    ``amplitude`` of it; the true roll damping steepens with Mach."""
+    mach = np.where(rng.random(n) < 0.97, rng.uniform(0.3, 0.5, n), rng.uniform(0.5, 0.9, n))
+    phat = 0.02 * np.where(mach < 0.5, 1.0, amplitude) * rng.standard_normal(n)
+    damping = -(0.4 + 0.5 * (mach - 0.45))
+    y = 0.01 + damping * phat + 1e-4 * rng.standard_normal(n)
+    return {"mach": mach, "de": np.zeros(n), "phat": phat}, y
+
+
+def test_the_hold_fades_with_the_excitation():
+    """A bin just under the excitation threshold is held about as little as one just over
+    it is: the roll damping at Mach 0.8 with the rolls there at 0.30 and at 0.36 of the
+    full amplitude (a third between them) differs by under 0.05, and both lie within 0.05
+    of the truth (-0.575; -0.425 at Mach 0.5). With an all-or-nothing box they were -0.494
+    and -0.579."""
+    s = parse_structure("Cl(mach | 1, phat) S^1_3")
+    at = np.array([0.8])
+    fitted = []
+    for amplitude in (0.30, 0.36):
+        cols, y = _two_speed_rolls(np.random.default_rng(6), amplitude)
+        model = fit_structure(s, cols, y, SelectionSettings())
+        fitted.append(_roll_damping(model, at)[0])
+    assert abs(fitted[0] - fitted[1]) < 0.05
+    np.testing.assert_allclose(fitted, -0.575, atol=0.05)

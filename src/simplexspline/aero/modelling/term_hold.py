@@ -27,7 +27,8 @@ from simplexspline.aero.modelling.prior import interior_points
 from simplexspline.aero.modelling.notation import multiplier_factors
 from simplexspline.aero.modelling.structure import Structure
 
-__all__ = ["BINS", "HOLD_WEIGHT", "TERM_EXCITED", "excited_boxes", "hold_samples"]
+__all__ = ["BINS", "HOLD_WEIGHT", "TERM_EXCITED", "excitation", "excited_boxes",
+           "hold_samples"]
 
 #: A bin excites a term when the term's partial standard deviation there, or its sum of
 #: squares (:func:`excited_boxes`), is at least this share of its largest in any bin.
@@ -98,12 +99,30 @@ def excited_boxes(structure: Structure, z: np.ndarray, m: np.ndarray) -> list:
     list of (ndarray, ndarray) or None, length K
         (lower, upper) corners, scaled, per term.
     """
+    return excitation(structure, z, m)[0]
+
+
+def excitation(structure: Structure, z: np.ndarray, m: np.ndarray) -> tuple:
+    """:func:`excited_boxes` and, per term, how much each bin outside its box excites it.
+
+    Returns
+    -------
+    boxes : list
+        :func:`excited_boxes`.
+    shares : list of (ndarray, ndarray, ndarray) or None, length K
+        Per term with a box: the data's lower corner and width along every scheduling
+        variable (scaled), and per variable and bin its excitation share, the larger of
+        its partial standard deviation and its sum of squares as a share of the largest
+        in any bin (NaN: a bin that cannot say), shape (n, BINS); 0 in excited bins
+        (whose samples beyond the box do not move the term).
+    """
     z, m = np.asarray(z, dtype=float), np.asarray(m, dtype=float)
     n_samples, n_terms = m.shape
     lo_all, hi_all = z.min(axis=0), z.max(axis=0)
     moving = [k for k, name in enumerate(structure.multipliers)
               if name != "1" and n_samples and np.ptp(m[:, k]) > 0]
     hit = np.zeros(n_terms, dtype=bool)
+    share = np.full((n_terms, z.shape[1], BINS), np.nan)
     lo = np.tile(lo_all, (n_terms, 1))
     hi = np.tile(hi_all, (n_terms, 1))
     need = BIN_SAMPLES_PER_TERM * (len(moving) + 1)
@@ -135,7 +154,9 @@ def excited_boxes(structure: Structure, z: np.ndarray, m: np.ndarray) -> list:
             top = part.max()
             if not top > 0:
                 continue
-            on = known & ((part >= TERM_EXCITED * top) | (info >= TERM_EXCITED * info.max()))
+            level = np.maximum(part / top, info / info.max())
+            on = known & (level >= TERM_EXCITED)
+            share[k, j] = np.where(known, np.where(on, 0.0, level), np.nan)
             # in an excited bin, the samples where the term moves (the bin's edge need
             # not be the excitation's)
             moves = on[bins] & (r >= TERM_EXCITED * part[bins])
@@ -144,15 +165,15 @@ def excited_boxes(structure: Structure, z: np.ndarray, m: np.ndarray) -> list:
             hit[k] = True
             zj = z[:, j][rows]
             lo[k, j], hi[k, j] = zj.min(), zj.max()
-    out = []
+    boxes, shares = [], []
+    width = np.where(hi_all > lo_all, hi_all - lo_all, 1.0)
     for k in range(n_terms):
-        if not hit[k]:
-            out.append(None)
-            continue
         margin = _WHOLE * (hi_all - lo_all)
-        whole = np.all(lo[k] <= lo_all + margin) and np.all(hi[k] >= hi_all - margin)
-        out.append(None if whole else (lo[k], hi[k]))
-    return out
+        whole = not hit[k] or (np.all(lo[k] <= lo_all + margin)
+                               and np.all(hi[k] >= hi_all - margin))
+        boxes.append(None if whole else (lo[k], hi[k]))
+        shares.append(None if whole else (lo_all, width, share[k]))
+    return boxes, shares
 
 
 def _partial_residuals(x: np.ndarray, others: list) -> np.ndarray:
@@ -187,8 +208,14 @@ def _adjoining_unknown(on: np.ndarray, known: np.ndarray) -> np.ndarray:
     return out
 
 
-def hold_samples(structure: Structure, triangulation, boxes: list, spline) -> tuple:
+def hold_samples(structure: Structure, triangulation, boxes: list, spline,
+                 shares: list | None = None) -> tuple:
     """Virtual samples that hold every boxed term's coefficient at its value on the box.
+
+    With ``shares`` (:func:`excitation`) a virtual sample's weight falls with the
+    excitation of the bins it lies in outside the box: ``1 - share / TERM_EXCITED`` for
+    the least excited of them (1 where a bin cannot say), so that a bin just under the
+    threshold is held about as little as one just over it is (not at all).
 
     Parameters
     ----------
@@ -207,10 +234,12 @@ def hold_samples(structure: Structure, triangulation, boxes: list, spline) -> tu
         Unit multipliers (one term at a time).
     y : ndarray, shape (M,)
         The term's coefficient at the point moved onto its box.
+    w : ndarray, shape (M,)
+        Relative weights in (0, 1].
     """
     pts = interior_points(triangulation, structure.degree + 1)
     K = structure.nterms
-    zs, ms, ys = [], [], []
+    zs, ms, ys, ws = [], [], [], []
     for k, box in enumerate(boxes):
         if box is None:
             continue
@@ -225,6 +254,25 @@ def hold_samples(structure: Structure, triangulation, boxes: list, spline) -> tu
         unit[:, k] = 1.0
         ms.append(unit)
         ys.append(held[ok])
+        w = np.ones(int(ok.sum()))
+        if shares is not None and shares[k] is not None:
+            w = _hold_weights(pts[out][ok], lo, hi, shares[k])
+        ws.append(w)
     if not zs:
-        return np.zeros((0, structure.ndim)), np.zeros((0, K)), np.zeros(0)
-    return np.vstack(zs), np.vstack(ms), np.concatenate(ys)
+        return np.zeros((0, structure.ndim)), np.zeros((0, K)), np.zeros(0), np.zeros(0)
+    z, m, y, w = np.vstack(zs), np.vstack(ms), np.concatenate(ys), np.concatenate(ws)
+    keep = w > 0
+    return z[keep], m[keep], y[keep], w[keep]
+
+
+def _hold_weights(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray, shares: tuple) -> np.ndarray:
+    """Relative weight of the virtual samples at ``pts`` (outside the box ``lo..hi``):
+    ``1 - share / TERM_EXCITED`` of the least excited bin they lie in beyond the box."""
+    base, width, share = shares
+    w = np.zeros(len(pts))
+    for j in range(pts.shape[1]):
+        beyond = (pts[:, j] < lo[j] - _TOL) | (pts[:, j] > hi[j] + _TOL)
+        b = np.clip(((pts[:, j] - base[j]) / width[j] * BINS).astype(np.int64), 0, BINS - 1)
+        s = np.nan_to_num(share[j][b], nan=0.0)
+        w = np.where(beyond, np.maximum(w, 1.0 - np.minimum(s, TERM_EXCITED) / TERM_EXCITED), w)
+    return w

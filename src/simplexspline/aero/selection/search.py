@@ -45,7 +45,7 @@ from simplexspline.aero.selection.moves import (
     kinked_variable,
     neighbours,
 )
-from simplexspline.aero.modelling.term_hold import HOLD_WEIGHT, excited_boxes, hold_samples
+from simplexspline.aero.modelling.term_hold import HOLD_WEIGHT, excitation, hold_samples
 from simplexspline.aero.modelling.prior import (
     PRIOR_DEGREES,
     PRIOR_WEIGHT,
@@ -359,10 +359,10 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
                          "weight": settings.prior_weight}
     spline = _solve(space, ne, ridge, settings.smoothing)
     if settings.hold_terms and structure.varying:
-        boxes = excited_boxes(structure, u[keep], m[keep])
-        zh, mh, yh = hold_samples(structure, space.triangulation, boxes, spline)
+        boxes, shares = excitation(structure, u[keep], m[keep])
+        zh, mh, yh, wh = hold_samples(structure, space.triangulation, boxes, spline, shares)
         if len(yh):
-            ne.merge(accumulate(space, zh, mh, yh, np.full(len(yh), HOLD_WEIGHT * wbar)))
+            ne.merge(accumulate(space, zh, mh, yh, HOLD_WEIGHT * wbar * wh))
             spline = _solve(space, ne, ridge, settings.smoothing)
             sched = scaling.subset(structure.variables)
             prov["held_terms"] = {
