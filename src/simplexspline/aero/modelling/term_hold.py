@@ -226,6 +226,8 @@ def hold_samples(structure: Structure, triangulation, boxes: list, spline,
         :func:`excited_boxes`.
     spline : VaryingCoefficientSpline
         The first fit, whose coefficients on the boxes are held.
+    shares : list, optional
+        :func:`excitation`'s second result; without it every weight is 1.
 
     Returns
     -------
