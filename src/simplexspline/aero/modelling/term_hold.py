@@ -121,6 +121,7 @@ def excitation(structure: Structure, z: np.ndarray, m: np.ndarray) -> tuple:
     lo_all, hi_all = z.min(axis=0), z.max(axis=0)
     moving = [k for k, name in enumerate(structure.multipliers)
               if name != "1" and n_samples and np.ptp(m[:, k]) > 0]
+    width = np.where(hi_all > lo_all, hi_all - lo_all, 1.0)
     hit = np.zeros(n_terms, dtype=bool)
     share = np.full((n_terms, z.shape[1], BINS), np.nan)
     lo = np.tile(lo_all, (n_terms, 1))
@@ -133,9 +134,7 @@ def excitation(structure: Structure, z: np.ndarray, m: np.ndarray) -> tuple:
     others = [[i for i in range(len(moving)) if not factors[i] & factors[j]]
               for j in range(len(moving))]
     for j in range(z.shape[1]):
-        width = hi_all[j] - lo_all[j]
-        bins = np.zeros(n_samples, dtype=np.int64) if not width > 0 else np.minimum(
-            ((z[:, j] - lo_all[j]) / width * BINS).astype(np.int64), BINS - 1)
+        bins = _bin_index(z[:, j], lo_all[j], width[j])
         counts = np.bincount(bins, minlength=BINS)
         known = (counts >= need) & bool(moving)
         resid = np.zeros((n_terms, n_samples))           # a term's row contiguous
@@ -166,14 +165,19 @@ def excitation(structure: Structure, z: np.ndarray, m: np.ndarray) -> tuple:
             zj = z[:, j][rows]
             lo[k, j], hi[k, j] = zj.min(), zj.max()
     boxes, shares = [], []
-    width = np.where(hi_all > lo_all, hi_all - lo_all, 1.0)
+    margin = _WHOLE * (hi_all - lo_all)
     for k in range(n_terms):
-        margin = _WHOLE * (hi_all - lo_all)
         whole = not hit[k] or (np.all(lo[k] <= lo_all + margin)
                                and np.all(hi[k] >= hi_all - margin))
         boxes.append(None if whole else (lo[k], hi[k]))
         shares.append(None if whole else (lo_all, width, share[k]))
     return boxes, shares
+
+
+def _bin_index(x: np.ndarray, base: float, width: float) -> np.ndarray:
+    """The bin (0..BINS-1) of each value ``x`` along a scheduling variable that spans
+    ``base .. base + width`` in the data (values beyond fall in the end bins)."""
+    return np.clip(((x - base) / width * BINS).astype(np.int64), 0, BINS - 1)
 
 
 def _partial_residuals(x: np.ndarray, others: list) -> np.ndarray:
@@ -197,8 +201,7 @@ def _adjoining_unknown(on: np.ndarray, known: np.ndarray) -> np.ndarray:
     """``on`` grown over runs of bins that cannot say (``~known``) next to an excited
     bin."""
     out = on.copy()
-    for step in (1, -1):
-        idx = range(len(on)) if step == 1 else range(len(on) - 1, -1, -1)
+    for idx in (range(len(on)), reversed(range(len(on)))):
         carry = False
         for b in idx:
             if known[b]:
@@ -274,7 +277,6 @@ def _hold_weights(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray, shares: tuple
     w = np.zeros(len(pts))
     for j in range(pts.shape[1]):
         beyond = (pts[:, j] < lo[j] - _TOL) | (pts[:, j] > hi[j] + _TOL)
-        b = np.clip(((pts[:, j] - base[j]) / width[j] * BINS).astype(np.int64), 0, BINS - 1)
-        s = np.nan_to_num(share[j][b], nan=0.0)
+        s = np.nan_to_num(share[j][_bin_index(pts[:, j], base[j], width[j])], nan=0.0)
         w = np.where(beyond, np.maximum(w, 1.0 - np.minimum(s, TERM_EXCITED) / TERM_EXCITED), w)
     return w
