@@ -213,11 +213,7 @@ def kink_moves(s: Structure, positions) -> list:
     have = set(s.multipliers)
     kinked = _kinks_of(s.multipliers)
     out = []
-    for m in s.multipliers:
-        _expr, dims, knots = parse_multiplier(m)
-        parts = multiplier_parts(m)
-        if dims is not None or knots or any(a for _c, a, _k in parts):
-            continue
+    for parts in _plain_terms(s.multipliers):
         base = _product(parts)
         odd = sum(c in LATERAL_VARIABLES and not a for c, a, _k in parts) % 2 == 1
         for v, ks in positions.items():
@@ -268,12 +264,7 @@ def joint_kink_moves(s: Structure, positions) -> list:
         return []
     have = set(s.multipliers)
     kinked = _kinks_of(s.multipliers)
-    bases = []
-    for t in s.multipliers:
-        _expr, dims, knots = parse_multiplier(t)
-        parts = multiplier_parts(t)
-        if dims is None and not knots and not any(a for _c, a, _k in parts):
-            bases.append(_product(parts))
+    bases = [_product(parts) for parts in _plain_terms(s.multipliers)]
     out = []
     for v, ks in positions.items():
         if v in LATERAL_VARIABLES:
@@ -287,6 +278,19 @@ def joint_kink_moves(s: Structure, positions) -> list:
             if len(terms) >= 2:
                 out.append((f"add kinks {_kink_term('1', v, k, None)}",
                             s.with_(multipliers=(*s.multipliers, *terms))))
+    return out
+
+
+def _plain_terms(multipliers) -> list:
+    """The factors (:func:`multiplier_parts`) of the terms that may take a kink: neither
+    restricted to some variables nor given breakpoints of their own, nor kinks
+    themselves."""
+    out = []
+    for m in multipliers:
+        _expr, dims, knots = parse_multiplier(m)
+        parts = multiplier_parts(m)
+        if dims is None and not knots and not any(a for _c, a, _k in parts):
+            out.append(parts)
     return out
 
 
