@@ -828,15 +828,13 @@ def screen_moves(best: Structure, moves: list, columns: Mapping, y: np.ndarray,
             if kind == "remove multiplier ":
                 gains.append(-share.get(name, 0.0))
                 continue
-            if kind in ("add multiplier ", "add kink "):
-                term = Structure(best.coefficient, best.variables, multipliers=(name,))
-                t = multiplier_values(term, input_matrix(columns, term.inputs))[:, 0]
-                feats = [t, t * z0, t * z0 * z0]
-            elif kind == "add kinks ":
+            if kind in ("add multiplier ", "add kink ", "add kinks "):
                 added = tuple(t for t in cand.multipliers if t not in best.multipliers)
                 terms = Structure(best.coefficient, best.variables, multipliers=added)
-                feats = list(multiplier_values(terms, input_matrix(columns,
-                                                                   terms.inputs)).T)
+                t = multiplier_values(terms, input_matrix(columns, terms.inputs)).T
+                # a joint kink's terms have constant coefficients; one new term's may vary
+                feats = list(t) if kind == "add kinks " else [t[0], t[0] * z0,
+                                                              t[0] * z0 * z0]
             else:
                 v = np.asarray(columns[name], dtype=float)
                 v = (v - v.mean()) / (v.std() or 1.0)
