@@ -40,6 +40,7 @@ ends of the signal.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -127,20 +128,30 @@ def noise_std(x) -> float:
 _ONE_SIDED_DEGREE = 2
 
 
+@functools.lru_cache(maxsize=None)
+def _weights(h: int, degree: int, side: str) -> np.ndarray:
+    """The local polynomial fit's weights of a window of half-width ``h`` at its middle
+    ('centred'), last ('left') or first ('right') sample (read-only: shared by every
+    signal)."""
+    from scipy.signal import savgol_coeffs
+
+    w = savgol_coeffs(2 * h + 1, degree, pos={"centred": h, "left": 2 * h, "right": 0}[side],
+                      use="dot")
+    w.setflags(write=False)
+    return w
+
+
 def _fit_sets(n: int, degree: int) -> list:
     """Per direction ('centred', 'left', 'right'): its (half-width, weights) list, the
     room every sample has for it [samples], the half-widths and the windows' white-noise
     gains. A left window of half-width h is the 2h + 1
     samples ending at the sample, a right one those starting there."""
-    from scipy.signal import savgol_coeffs
-
     idx = np.arange(n)
     sets = []
     for side in ("centred", "left", "right"):
         deg = degree if side == "centred" else _ONE_SIDED_DEGREE
         # where in its window the sample sits: the middle, the last or the first place
-        windows = [(h, savgol_coeffs(2 * h + 1, deg, pos={"centred": h, "left": 2 * h,
-                                                          "right": 0}[side], use="dot"))
+        windows = [(h, _weights(h, deg, side))
                    for h in HALF_WIDTHS if deg + 1 < 2 * h + 1 <= n]
         room = {"centred": np.minimum(idx, n - 1 - idx), "left": idx // 2,
                 "right": (n - 1 - idx) // 2}[side]
@@ -168,20 +179,28 @@ def _fits(x: np.ndarray, sets: list) -> list:
 def _ici(fits: np.ndarray, sds: np.ndarray, halves: np.ndarray, x: np.ndarray,
          room: np.ndarray, gamma: float) -> tuple:
     """The ICI estimate of one direction: per sample the fit of the largest window
-    consistent with all smaller ones, and its standard deviation."""
-    lo = np.full(x.size, -np.inf)
-    hi = np.full(x.size, np.inf)
-    alive = np.ones(x.size, dtype=bool)
-    est = x.copy()
-    sd = np.full(x.size, np.inf)          # no window: this direction is not used
-    for y, s, h in zip(fits, sds, halves):
+    consistent with all smaller ones, and its standard deviation.
+
+    ``fits`` is (k, n) in increasing window size; a window counts while it and every
+    smaller one are consistent and fit in the sample's room, so the samples' windows are
+    counted in one pass and gathered at the end."""
+    if len(fits) == 0:
+        return x.copy(), np.full(x.size, np.inf)
+    lo = fits[0] - gamma * sds[0]
+    hi = fits[0] + gamma * sds[0]
+    alive = room >= halves[0]
+    count = alive.astype(np.intp)             # windows used per sample (0: none)
+    for y, s, h in zip(fits[1:], sds[1:], halves[1:]):
+        if not alive.any():
+            break
         np.maximum(lo, y - gamma * s, out=lo)
         np.minimum(hi, y + gamma * s, out=hi)
         alive &= (lo <= hi) & (room >= h)
-        if not alive.any():
-            break
-        est[alive] = y[alive]
-        sd[alive] = s
+        count += alive
+    last = np.maximum(count - 1, 0)
+    used = count > 0
+    est = np.where(used, fits[last, np.arange(x.size)], x)
+    sd = np.where(used, sds[last], np.inf)    # no window: this direction is not used
     return est, sd
 
 
