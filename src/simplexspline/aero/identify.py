@@ -12,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import math
 import json
-import multiprocessing
 import os
 import contextlib
 import shutil
@@ -62,6 +61,7 @@ from simplexspline.aero.selection.validation import (
 )
 from simplexspline._files import jsonable, locked, remove_stale, temp_dir
 from simplexspline._compute_slots import busy_seconds, compute_slot, init_worker
+from simplexspline._workers import process_context
 from simplexspline._version import __version__
 from simplexspline.errors import FlightDataError, InputError, SimplexSplineError
 from simplexspline.aero.report.page import write_report
@@ -869,7 +869,7 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
 
         def slim(frame):
             return frame[[k for k in frame.columns if k in keep]]
-        ctx = multiprocessing.get_context("spawn")
+        ctx = process_context()
         # one process per coefficient (up to 3 per worker), ``workers`` of them computing
         # at once, trial by trial (simplexspline._compute_slots): which search is long is
         # not known in advance, and one that started last ran alone at the end (the main

@@ -15,7 +15,6 @@ number of workers or on which worker flew what.
 from __future__ import annotations
 
 import math
-import multiprocessing
 import os
 import sys
 import tempfile
@@ -26,7 +25,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
-from simplexspline._workers import ignore_interrupts
+from simplexspline._workers import ignore_interrupts, process_context
 from simplexspline.aero.data.atmosphere import isa_temperature, speed_of_sound
 from simplexspline.aero.data.flight_data import write_flight_data
 from simplexspline.errors import InputError, SimulationError
@@ -489,7 +488,7 @@ class Executor:
                 return
             if self.pool is None:
                 self.pool = ProcessPoolExecutor(
-                    max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                    max_workers=self.workers, mp_context=process_context(),
                     initializer=ignore_interrupts)
             futures = {self.pool.submit(func, specs[i]): i for i in order}
             try:

@@ -16,7 +16,6 @@ a diverging filter) is rejected with the reason and the others still process.
 from __future__ import annotations
 
 import math
-import multiprocessing
 import os
 from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -24,7 +23,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from simplexspline._workers import ignore_interrupts
+from simplexspline._workers import ignore_interrupts, process_context
 from simplexspline._files import jsonable
 from simplexspline.aero.data.atmosphere import hydrostatic_height
 from simplexspline.aero.data.adaptive_smoothing import smooth_by_maneuver
@@ -1463,7 +1462,7 @@ class _Workers:
     def pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
             self._pool = ProcessPoolExecutor(
-                max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                max_workers=self.workers, mp_context=process_context(),
                 initializer=ignore_interrupts)
         return self._pool
 
