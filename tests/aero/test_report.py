@@ -161,6 +161,21 @@ def test_render_jobs_in_order(workers):
     assert len(lines) == 5
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_figures_are_made_with_the_report_settings_and_leave_the_callers(workers):
+    """Every job runs with render.RC (titles at a fixed height: no tick-label measuring),
+    in a worker or in this process; the caller's matplotlib settings stay as they were."""
+    import matplotlib
+
+    from simplexspline.aero.report.page import _render
+    from simplexspline.aero.report.render import RC
+
+    before = dict(matplotlib.rcParams)
+    jobs = [(f"job {i}", lambda: {k: matplotlib.rcParams[k] for k in RC}) for i in range(3)]
+    assert _render(jobs, workers, lambda _line: None) == [RC] * 3
+    assert dict(matplotlib.rcParams) == before
+
+
 def test_projected_edges_unique():
     from simplexspline.aero.report.figures import projected_edges
 

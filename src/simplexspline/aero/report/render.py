@@ -17,6 +17,14 @@ from simplexspline.aero.report.document import Figure
 #: Dots per inch of the PNG figures.
 DPI = 90
 
+#: Settings the figures are made with (matplotlib's rc parameters, for the jobs only: the
+#: caller's are left as they were). Titles at a fixed height above their axes: matplotlib
+#: otherwise places every title clear of the x axis's tick labels by measuring them
+#: (``_update_title_position``), a quarter of the report's drawing time (the main job's 46
+#: figures: 12.6-15.8 -> 9.5-12.1 s in one process; 40 of them the same to the byte, the
+#: 3-D slices' titles a few pixels higher). None of these axes has ticks above it.
+RC = {"axes.titley": 1.0}
+
 
 class _Renderer:
     """Makes matplotlib figures (object API, no pyplot) and renders them to PNG bytes."""
@@ -45,8 +53,16 @@ class _Renderer:
 _JOBS: list = []
 
 
+def _job(job: Callable):
+    """Run one figure job with :data:`RC`."""
+    import matplotlib
+
+    with matplotlib.rc_context(RC):
+        return job()
+
+
 def _run_job(index: int):
-    return _JOBS[index][1]()
+    return _job(_JOBS[index][1])
 
 
 def _render(jobs: list, workers: int, say: Callable[[str], None]) -> list:
@@ -85,6 +101,6 @@ def _render(jobs: list, workers: int, say: Callable[[str], None]) -> list:
                 _JOBS = []
     for i, (label, job) in enumerate(jobs):
         if not done[i]:
-            out[i], done[i] = job(), True
+            out[i], done[i] = _job(job), True
             say(f"report: figure {sum(done)}/{len(jobs)} ({label})")
     return out
