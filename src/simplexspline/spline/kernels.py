@@ -760,7 +760,7 @@ def walk_evaluate(x, plan: tuple, coef, d: int) -> tuple[np.ndarray, np.ndarray,
     if len(x) == 0:
         return sid, out, 0
     x = np.ascontiguousarray(x, dtype=float)
-    coef = np.ascontiguousarray(coef, dtype=float)
+    coef = _frozen(coef)
     counts: list = []  # one per slice (list.append is atomic under the GIL)
     in_parallel(len(x), lambda s, e: counts.append(_walk(
         x[s:e], *plan, coef, scale, parents, firsts, offsets, sid[s:e], out[s:e])))
@@ -777,6 +777,22 @@ def basis_cols(bt: np.ndarray, d: int) -> np.ndarray:
     return _basis_cols(np.ascontiguousarray(bt), parents, firsts, offsets, scale, out)
 
 
+def _frozen(a) -> np.ndarray:
+    """``a`` as a read-only, C-contiguous float array (a view where it already is one).
+
+    numba compiles a kernel once per argument type, and an array's type includes its
+    layout and whether it is writeable: the triangulations' geometry and the coefficients
+    reach the kernels as read-only arrays, strided views and plain copies, and the main job
+    compiled ``_evaluate`` five times, ``_block_barycentric`` four times and ``_gradient``
+    three times (each compile some seconds on an empty cache, and each loaded from the
+    cache again in every worker process). One type per argument makes one compile."""
+    a = np.ascontiguousarray(a, dtype=float)
+    if a.flags.writeable:
+        a = a.view()
+        a.flags.writeable = False
+    return a
+
+
 def sorted_design_t(x, sid, counts, origin, tinv, d: int):
     """Basis values (d_hat, N) of points located in simplices ``sid`` (all >= 0), columns in
     simplex-sorted order (simplex j's columns contiguous, in input order), and the sorted
@@ -789,7 +805,8 @@ def sorted_design_t(x, sid, counts, origin, tinv, d: int):
         perm[:] = np.argsort(sid, kind="stable").argsort()
         out[:] = 1.0
         return out, perm
-    _sorted_design_t(np.ascontiguousarray(x), sid, pos, origin, tinv, parents, firsts,
+    _sorted_design_t(np.ascontiguousarray(x), sid, pos, _frozen(origin), _frozen(tinv),
+                     parents, firsts,
                      offsets, scale, out, perm)
     return out, perm
 
@@ -805,6 +822,7 @@ def gradient(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
     parents, firsts, offsets, scale = basis_plan(x.shape[1], d - 1)
     out = np.empty(x.shape)
     x = np.ascontiguousarray(x)
+    origin, tinv, coef = _frozen(origin), _frozen(tinv), _frozen(coef)
     table = _step_table(x.shape[1], d)
     in_parallel(len(x), lambda s, e: _gradient(x[s:e], sid[s:e], origin, tinv, coef, table,
                                                scale, parents, firsts, offsets, float(d),
@@ -820,6 +838,7 @@ def evaluate(x, sid, origin, tinv, coef, d: int) -> np.ndarray:
         out[:] = np.where(sid >= 0, coef[np.maximum(sid, 0), 0], np.nan)
         return out
     x = np.ascontiguousarray(x)
+    origin, tinv, coef = _frozen(origin), _frozen(tinv), _frozen(coef)
     in_parallel(len(x), lambda s, e: _evaluate(x[s:e], sid[s:e], origin, tinv, coef, scale,
                                                parents, firsts, offsets, out[s:e]))
     return out
