@@ -7,10 +7,18 @@ STAMP := $(VENV)/.installed
 
 .PHONY: run test test-all bench clean
 
+WARM_UP := $(VENV)/.warm-up
+
+# The install ends with a small identification end to end (8 simulated maneuvers, one
+# process): it compiles numba's kernels (filter, location, basis, evaluation) into numba's
+# cache once, so that the first main job does not compile them in each of its workers.
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[all,test]'
+	rm -rf $(WARM_UP)
+	$(VENV)/bin/simplexspline identify --maneuvers 8 --workers 1 --quiet -o $(WARM_UP)
+	rm -rf $(WARM_UP)
 	touch $(STAMP)
 
 run: $(STAMP)
