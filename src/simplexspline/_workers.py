@@ -26,10 +26,13 @@ import signal
 __all__ = ["PRELOAD", "process_context", "ignore_interrupts", "interrupt_handler"]
 
 #: Modules the fork server imports before it forks the workers: those the package's
-#: pools run (a module whose optional dependencies are missing is skipped by the server).
+#: pools run, and ``scipy.signal``, which the reconstruction workers' control smoothing
+#: imports on first use (0.5-0.8 s each; a module whose optional dependencies are
+#: missing is skipped by the server).
 PRELOAD: tuple = ("simplexspline.aero.identify",
                   "simplexspline.aero.reconstruction.reconstruct",
-                  "simplexspline.sim.campaign")
+                  "simplexspline.sim.campaign",
+                  "scipy.signal")
 
 
 def process_context() -> multiprocessing.context.BaseContext:
