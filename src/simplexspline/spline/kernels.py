@@ -760,7 +760,7 @@ def walk_evaluate(x, plan: tuple, coef, d: int) -> tuple[np.ndarray, np.ndarray,
     if len(x) == 0:
         return sid, out, 0
     x = np.ascontiguousarray(x, dtype=float)
-    coef = _frozen(coef)
+    coef = np.ascontiguousarray(coef, dtype=float)   # as walk_locate's empty one: one type
     counts: list = []  # one per slice (list.append is atomic under the GIL)
     in_parallel(len(x), lambda s, e: counts.append(_walk(
         x[s:e], *plan, coef, scale, parents, firsts, offsets, sid[s:e], out[s:e])))
