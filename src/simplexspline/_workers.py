@@ -8,7 +8,7 @@ starts ten of them (2 + 2 + 6: measured 4.6 s of wall time and 9 s of CPU for th
 search workers on 2 cores). The fork server is one clean process that imports the
 package's worker modules (:data:`PRELOAD`) once and forks every worker from there, so a
 worker starts in milliseconds with nothing to import. Unlike a plain ``fork`` of the
-caller, the server holds no threads, open files or state of the calling program; like
+caller, the server holds none of the calling program's threads, open files or state; like
 ``spawn``, workers see the package as it is installed, not the caller's changes to it.
 
 **Ctrl-C.** A terminal's Ctrl-C reaches every process of its group: without this, each
