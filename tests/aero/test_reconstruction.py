@@ -16,7 +16,8 @@ from simplexspline.aero.reconstruction.iekf import FilterNoise, rts_smooth, run_
 from simplexspline.aero.reconstruction.kinematics import (
     MEASUREMENT_NAMES, NX, NZ, EarthModel, measure, normal_gravity, propagate,
 )
-from simplexspline.aero.reconstruction.observability import heading_excursion
+from simplexspline.aero.reconstruction.observability import (
+    TRIM_AY, TRIM_BANK, TRIM_RATE, heading_excursion, trimmed)
 from simplexspline.aero.reconstruction.reconstruct import initial_state, innovation_statistics
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.sim.sensors import DEFAULT_BIAS, DEFAULT_NOISE_STD
@@ -658,9 +659,14 @@ def test_the_imu_biases_of_the_turns_hold_those_of_the_straight_maneuvers(
     """Without heading a straight maneuver cannot tell a yaw-rate gyro bias from a sideslip
     drift; the turns observe it. With the campaign's IMU biases as each maneuver's prior
     the straight maneuvers' gyro bias is the truth's within its sigma and their sideslip
-    error halves; every maneuver says where its prior came from."""
+    error halves; every maneuver says where its prior came from. (Under the zero-mean
+    sideslip rule, which leaves the drift to the gyro bias alone: the default, zero
+    sideslip where the maneuver flies trimmed, also pins it at the 3211s' trimmed samples,
+    1.58e-4 -> 1.23e-4 rad with each maneuver's own biases, 8.6e-5 -> 8.8e-5 with the
+    campaign's, when this was written.)"""
     runs = {mode: reconstruct(turns_and_straights, workers=1,
-                              settings=ReconstructionSettings(imu_calibration=mode))
+                              settings=ReconstructionSettings(imu_calibration=mode,
+                                                              sideslip_prior="mean"))
             for mode in ("maneuver", "campaign")}
     straight = _straight(runs["campaign"])
     assert len(straight) == 2 and straight == _straight(runs["maneuver"])
@@ -742,3 +748,26 @@ def test_a_straight_maneuver_takes_the_wind_of_the_turns_at_its_altitude():
     assert _wind_prior({"h": np.full(50, 4500.0)}, winds) is None
     assert _wind_prior({"h": np.full(50, 3000.0)}, []) is None
     assert _wind_prior({"h": np.full(50, np.nan)}, winds) is None
+
+
+def test_trimmed_samples_are_level_still_and_ball_centred():
+    """Trimmed flight for the sideslip pseudo-measurement: every condition on its own
+    removes a sample (a bank, a roll or yaw rate, a side force), the IMU biases come off
+    first, and a NaN or a missing channel is never trimmed."""
+    n = 8
+    base = {"p": np.full(n, 2e-4), "r": np.full(n, -1e-4), "phi": np.zeros(n),
+            "ay": np.full(n, -0.015)}
+    biases = {"bp": (2e-4, 1e-5), "br": (-1e-4, 1e-5), "bay": (-0.015, 1e-3)}
+    assert trimmed(base, biases).all()
+    task = {k: v.copy() for k, v in base.items()}
+    task["phi"][1] = 1.2 * TRIM_BANK
+    task["p"][2] = 2e-4 + 1.2 * TRIM_RATE
+    task["r"][3] = -1e-4 - 1.2 * TRIM_RATE
+    task["ay"][4] = -0.015 + 1.2 * TRIM_AY
+    task["ay"][5] = np.nan
+    got = trimmed(task, biases)
+    assert got.tolist() == [True, False, False, False, False, False, True, True]
+    # the ay bias, not taken off, is a side force of its own size
+    assert not trimmed({**base, "ay": np.full(n, -0.06)}).any()
+    assert trimmed({**base, "ay": np.full(n, -0.06)}, {"bay": (-0.06, 0.0)}).all()
+    assert not trimmed({k: v for k, v in base.items() if k != "ay"}).any()

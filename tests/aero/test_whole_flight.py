@@ -103,7 +103,18 @@ def test_a_long_whole_flight_through_four_test_points(tmp_path, capsys):
     _check(tmp_path, mapping, capsys)
 
 
-def test_the_turns_of_a_flight_give_its_straight_maneuvers_the_wind(tmp_path):
+@pytest.fixture(scope="module")
+def still_air_course():
+    """A flight-test course in still air and a steady 5-6 m/s wind (global5000, one test
+    point, one pulse and one doublet per axis, a turn between maneuvers; read-only)."""
+    return WholeFlight("global5000", sensors=SensorModel.real_like(),
+                       wind=Wind((5.0, 6.0), "none"), protocol=FlightProtocol.eigenmotion(),
+                       legs=[(4500.0, 200.0)], maneuvers=6, seed=2, steady_s=(10.0, 15.0),
+                       turn_probability=1.0).run()
+
+
+def test_the_turns_of_a_flight_give_its_straight_maneuvers_the_wind(tmp_path,
+                                                                    still_air_course):
     """A flight-test course in still air and a steady 5-6 m/s wind, without heading or
     vane, whose maneuver list logs the turns between the maneuvers (or, without a list,
     whose turns are found between the detected maneuvers). The turns observe the
@@ -111,11 +122,7 @@ def test_the_turns_of_a_flight_give_its_straight_maneuvers_the_wind(tmp_path):
     maneuvers' sideslip no longer takes the crab angle's change as their heading changes:
     its RMS error over them falls by more than half (an aileron pulse's from 1.6e-2 to
     1.3e-3 rad when this test was written), and each says where its wind came from."""
-    df = WholeFlight("global5000", sensors=SensorModel.real_like(),
-                     wind=Wind((5.0, 6.0), "none"), protocol=FlightProtocol.eigenmotion(),
-                     legs=[(4500.0, 200.0)], maneuvers=6, seed=2, steady_s=(10.0, 15.0),
-                     turn_probability=1.0).run()
-    rec = write_channel_record(df, tmp_path / "record", turns=True)
+    rec = write_channel_record(still_air_course, tmp_path / "record", turns=True)
     listed = pd.read_csv(rec / "maneuvers.csv")
     assert (listed["type"] == "turn").sum() >= 2
     data = import_record(rec / "mapping.toml").data
@@ -143,6 +150,47 @@ def test_the_turns_of_a_flight_give_its_straight_maneuvers_the_wind(tmp_path):
     assert any("turn(s) cut as maneuvers" in n for n in found.segment_notes)
     with pytest.raises(InputError, match="wind_calibration must be 'campaign' or 'maneuver'"):
         ReconstructionSettings(wind_calibration="turns")
+
+
+def test_a_lateral_maneuver_flown_from_trim_keeps_its_sideslip(tmp_path, still_air_course):
+    """The same course: without a vane or a heading, a straight maneuver's mean sideslip
+    is not observable (a heading error and a sideslip error give the same GPS track). A
+    zero mean over the maneuver (``sideslip_prior='mean'``) is wrong for a doublet or a
+    pulse, and it left the offset to the filter's slight model errors: the aileron and
+    rudder maneuvers' sideslip came out 0.2-2.8e-3 rad off when this test was written. In
+    still air the filter now takes the sideslip as zero where the maneuver flies trimmed
+    (before the input, after the free response): 0.01-0.5e-3. The turns, never trimmed,
+    keep the zero mean; the statements say which rule each maneuver had."""
+    rec = write_channel_record(still_air_course, tmp_path / "record", turns=True)
+    kinds = pd.read_csv(rec / "maneuvers.csv")["type"]
+    data = import_record(rec / "mapping.toml").data
+    truth = pd.read_csv(rec / "truth.csv")
+    offset, said = {}, {}
+    for mode in ("mean", "trim"):
+        run = reconstruct(data, workers=1,
+                          settings=ReconstructionSettings(sideslip_prior=mode))
+        offset[mode], said[mode] = {}, {}
+        for m, g in run.data.groupby("maneuver"):
+            true_beta = np.interp(g["t_record"], truth["t_record"], truth["beta"])
+            offset[mode][m] = abs(float(np.mean(g["beta"].to_numpy() - true_beta)))
+            said[mode][m] = run.maneuvers[m]["observability"]["beta"]
+    lateral = [m for m in offset["trim"] if str(kinds[m]).endswith(("aileron", "rudder"))]
+    assert len(lateral) == 4
+    assert max(offset["trim"][m] for m in lateral) < 0.3 * max(offset["mean"][m]
+                                                               for m in lateral), offset
+    assert np.mean([offset["trim"][m] for m in lateral]) < 0.5 * np.mean(
+        [offset["mean"][m] for m in lateral]), offset
+    for m, kind in kinds.items():
+        if kind == "turn":
+            assert offset["trim"][m] == pytest.approx(offset["mean"][m], rel=1e-6)
+            assert said["trim"][m].endswith("zero mean over the maneuver assumed")
+        else:
+            assert said["trim"][m].endswith("zero where the maneuver flies trimmed (wings "
+                                            "level, no rotation, the ball centred)"), kind
+        assert said["mean"][m].endswith("zero mean over the maneuver assumed")
+        assert said["trim"][m].startswith("estimated from the lateral kinematics")
+    with pytest.raises(InputError, match="sideslip_prior must be 'trim' or 'mean'"):
+        ReconstructionSettings(sideslip_prior="zero")
 
 
 def test_a_vane_on_a_nose_boom_is_found_with_its_scale_error_by_the_campaign(tmp_path):
