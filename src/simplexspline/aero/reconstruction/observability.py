@@ -25,7 +25,10 @@ filter's own variance reduction is checked afterwards by :func:`variance_reducti
   over those samples together, and nothing is assumed elsewhere: a doublet's or a pulse's
   mean sideslip is not zero, and the weak zero mean let the filter's own slight model
   errors decide the split between heading and sideslip (a still-air rudder doublet's
-  sideslip came out 2.5e-3 rad off, its true mean 4e-5). Without GPS the models in beta (CY, Cl, Cn) are flagged
+  sideslip came out 2.5e-3 rad off, its true mean 4e-5). Where a straight still-air
+  maneuver holds no trimmed flight, its zero mean weighs at least :data:`MEAN_SIDESLIP`
+  over the maneuver, however few its samples (a turn keeps the weak zero mean: its mean
+  sideslip is not zero). Without GPS the models in beta (CY, Cl, Cn) are flagged
   and the lateral accelerometer bias is held at zero (estimated against the zero-mean
   assumption it differed from maneuver to maneuver: CY's per-maneuver mean error reached
   5.7 times its noise on a 10-maneuver real-like campaign).
@@ -54,7 +57,7 @@ import numpy as np
 from simplexspline.aero.reconstruction.kinematics import euler_rates
 
 __all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "POSITION_GIVEN",
-           "POSITION_NOT_REQUESTED", "TRIM_AY", "TRIM_BANK", "TRIM_MIN_S", "TRIM_RATE",
+           "MEAN_SIDESLIP", "POSITION_NOT_REQUESTED", "TRIM_AY", "TRIM_BANK", "TRIM_MIN_S", "TRIM_RATE",
            "TRIM_SIDESLIP", "channels_present",
            "heading_excursion", "observability_plan", "trimmed", "variance_reduction"]
 
@@ -75,6 +78,13 @@ TRIM_MIN_S = 1.0
 #: Sigma [rad] of the trimmed samples' mean sideslip about zero (a symmetric aircraft
 #: trimmed with the ball centred; the sigma of their pseudo-measurements together).
 TRIM_SIDESLIP = 1e-3
+#: In still air with GPS, a straight maneuver without trimmed flight: the sigma [rad] of its mean
+#: sideslip about zero, whatever its sample count (a pseudo-measurement sigma of
+#: ``beta_pseudo_std`` per sample weighs a detected 8 s segment at 10 Hz 5.6e-3, and the
+#: filter's slight model errors put one aileron input's sideslip 3.95e-3 rad off; with
+#: this sigma 1.0e-3). Long maneuvers keep ``beta_pseudo_std`` per sample where that is
+#: tighter.
+MEAN_SIDESLIP = 1.5e-3
 _WIND = ("wind_n", "wind_e", "wind_d")
 
 

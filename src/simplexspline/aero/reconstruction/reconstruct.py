@@ -55,7 +55,8 @@ from simplexspline.aero.reconstruction.kinematics import (
     WIND_STATES, EarthModel, measure, step_mean,
 )
 from simplexspline.aero.reconstruction.observability import (
-    POSITION_GIVEN, POSITION_NOT_REQUESTED, TRIM_MIN_S, TRIM_SIDESLIP, channels_present,
+    MEAN_SIDESLIP, POSITION_GIVEN, POSITION_NOT_REQUESTED, TRIM_MIN_S, TRIM_SIDESLIP,
+    channels_present,
     heading_excursion, observability_plan, trimmed, variance_reduction,
 )
 from simplexspline.aero.reconstruction.sensor_corrections import (
@@ -289,9 +290,11 @@ class ReconstructionSettings:
         finds in still air: 'trim' (default) takes the sideslip as zero where the maneuver
         flies trimmed (:func:`~simplexspline.aero.reconstruction.observability.trimmed`:
         wings level, no rotation, the ball centred; at least ``TRIM_MIN_S`` of it, within
-        ``TRIM_SIDESLIP`` over those samples together) and assumes nothing elsewhere;
-        'mean' takes a zero mean over the whole maneuver (``beta_pseudo_std``), as in
-        turbulence, without GPS and where a maneuver holds no trimmed flight. On the
+        ``TRIM_SIDESLIP`` over those samples together) and assumes nothing elsewhere, and
+        a maneuver without trimmed flight gets a zero mean weighing at least
+        ``MEAN_SIDESLIP`` over the maneuver, however few its samples; 'mean' takes a zero
+        mean over the whole maneuver (``beta_pseudo_std`` per sample), as in turbulence,
+        without GPS and in the campaign's calibration pass. On the
         still-air real-like f16 record (``benchmarks/bench_real_like.py --turbulence
         none``) 'trim' halved the sideslip error (7.5e-4 -> 3.4e-4 rad RMS); a rudder
         doublet's true mean sideslip is not zero, and the weak zero mean had left its
@@ -626,23 +629,6 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     if plan["beta_pseudo"]:
         z[:, jb] = 0.0                     # zero-mean pseudo-measurement (see observability)
         meas_std[jb] = s["beta_pseudo_std"]
-    # in still air with GPS: zero sideslip where the maneuver flies trimmed, nothing assumed
-    # elsewhere (observability.trimmed); the forward pass without gusts takes these
-    z_still, std_still = z, meas_std
-    trim = np.zeros(n, dtype=bool)
-    # (not in the campaign's calibration pass: the vane's constants, which it combines,
-    # moved with it on a course's straight maneuvers, the angle-of-attack vane's position
-    # to 9.4 +- 0.7 m against a true 4)
-    if plan["beta_pseudo"] and s["sideslip_prior"] == "trim" \
-            and present["accelerometers"] and not s.get("calibration_pass") \
-            and (present["gps_position"] or present["gps_velocity"]):
-        trim = trimmed(task, task.get("imu_prior"))
-        if trim.sum() * dt >= TRIM_MIN_S:
-            z_still, std_still = z.copy(), meas_std.copy()
-            z_still[~trim, jb] = np.nan
-            std_still[jb] = TRIM_SIDESLIP * math.sqrt(trim.sum())
-        else:
-            trim[:] = False
     h = np.asarray(task["h"], dtype=float)
     baro = present["gps_position"] and not present["gps_vertical"] and np.isfinite(h).any()
     h_raw = h
@@ -722,6 +708,29 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
         initial.P[8, 8] = 1e-16     # heading held on the track: no crab, no crosswind
     tas = np.asarray(task["tas"], dtype=float)
     airspeed = float(np.nanmedian(tas))
+
+    # in still air with GPS: zero sideslip where the maneuver flies trimmed, nothing assumed
+    # elsewhere (observability.trimmed); a straight maneuver without trimmed flight a zero
+    # mean of at least MEAN_SIDESLIP, whatever its sample count. The forward pass without
+    # gusts takes these (not in the campaign's calibration pass: the vane's constants,
+    # which it combines, moved with them on a course's straight maneuvers, the
+    # angle-of-attack vane's position to 9.4 +- 0.7 m against a true 4)
+    z_still, std_still = z, meas_std
+    trim = np.zeros(n, dtype=bool)
+    if plan["beta_pseudo"] and s["sideslip_prior"] == "trim" \
+            and present["accelerometers"] and not s.get("calibration_pass") \
+            and (present["gps_position"] or present["gps_velocity"]):
+        trim = trimmed(task, task.get("imu_prior"))
+        z_still, std_still = z.copy(), meas_std.copy()
+        if trim.sum() * dt >= TRIM_MIN_S:
+            z_still[~trim, jb] = np.nan
+            std_still[jb] = TRIM_SIDESLIP * math.sqrt(trim.sum())
+        else:
+            trim[:] = False
+            if heading_excursion(task) < MIN_HEADING_CHANGE:
+                # straight: a turn's mean sideslip is not zero (a Cessna's turns at 50 m/s:
+                # 2-11e-3 rad off with this weight, 2-4e-3 without)
+                std_still[jb] = min(meas_std[jb], MEAN_SIDESLIP * math.sqrt(n))
 
     def forward(std: float, length_m: float) -> dict:
         """The forward pass with gusts of standard deviation ``std`` [m/s] (0: held)."""
