@@ -56,15 +56,16 @@ import numpy as np
 
 from simplexspline.aero.reconstruction.kinematics import euler_rates
 
-__all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "POSITION_GIVEN",
-           "MEAN_SIDESLIP", "POSITION_NOT_REQUESTED", "TRIM_AY", "TRIM_BANK", "TRIM_MIN_S", "TRIM_RATE",
-           "TRIM_SIDESLIP", "channels_present",
-           "heading_excursion", "observability_plan", "trimmed", "variance_reduction"]
+__all__ = ["GPS_VELOCITY", "GPS_POSITION", "ACCELEROMETERS", "MEAN_SIDESLIP",
+           "POSITION_GIVEN", "POSITION_NOT_REQUESTED", "TRIM_AY", "TRIM_BANK", "TRIM_MIN_S",
+           "TRIM_RATE", "TRIM_SIDESLIP", "channels_present", "heading_excursion",
+           "observability_plan", "trimmed", "variance_reduction"]
 
 GPS_VELOCITY = ("vn_gps", "ve_gps", "vd_gps")
 GPS_POSITION = ("x_gps", "y_gps", "z_gps")
 ACCELEROMETERS = ("ax", "ay", "az")
 _AIR_DATA_ERRORS = ("btas", "balpha", "bbeta")
+_WIND = ("wind_n", "wind_e", "wind_d")
 
 #: Trimmed flight (:func:`trimmed`): body roll and yaw rates below this [rad/s] (0.5 deg/s),
 TRIM_RATE = np.radians(0.5)
@@ -78,14 +79,13 @@ TRIM_MIN_S = 1.0
 #: Sigma [rad] of the trimmed samples' mean sideslip about zero (a symmetric aircraft
 #: trimmed with the ball centred; the sigma of their pseudo-measurements together).
 TRIM_SIDESLIP = 1e-3
-#: In still air with GPS, a straight maneuver without trimmed flight: the sigma [rad] of its mean
-#: sideslip about zero, whatever its sample count (a pseudo-measurement sigma of
+#: In still air with GPS, a straight maneuver without trimmed flight: the sigma [rad] of
+#: its mean sideslip about zero, whatever its sample count (a pseudo-measurement sigma of
 #: ``beta_pseudo_std`` per sample weighs a detected 8 s segment at 10 Hz 5.6e-3, and the
 #: filter's slight model errors put one aileron input's sideslip 3.95e-3 rad off; with
 #: this sigma 1.0e-3). Long maneuvers keep ``beta_pseudo_std`` per sample where that is
 #: tighter.
 MEAN_SIDESLIP = 1.5e-3
-_WIND = ("wind_n", "wind_e", "wind_d")
 
 
 def _has(task: Mapping, name: str) -> bool:

@@ -56,8 +56,7 @@ from simplexspline.aero.reconstruction.kinematics import (
 )
 from simplexspline.aero.reconstruction.observability import (
     MEAN_SIDESLIP, POSITION_GIVEN, POSITION_NOT_REQUESTED, TRIM_MIN_S, TRIM_SIDESLIP,
-    channels_present,
-    heading_excursion, observability_plan, trimmed, variance_reduction,
+    channels_present, heading_excursion, observability_plan, trimmed, variance_reduction,
 )
 from simplexspline.aero.reconstruction.sensor_corrections import (
     estimate_lag, rotation_velocity, specific_force_at_cg, undo_lag,
@@ -296,7 +295,7 @@ class ReconstructionSettings:
         mean over the whole maneuver (``beta_pseudo_std`` per sample), as in turbulence,
         without GPS and in the campaign's calibration pass. On the
         still-air real-like f16 record (``benchmarks/bench_real_like.py --turbulence
-        none``) 'trim' halved the sideslip error (7.5e-4 -> 3.4e-4 rad RMS); a rudder
+        none``) 'trim' more than halved the sideslip error (7.5e-4 -> 3.1e-4 rad RMS); a rudder
         doublet's true mean sideslip is not zero, and the weak zero mean had left its
         offset to the filter's slight model errors (2.5e-3 rad on a flight-test course).
     velocity_random_walk : float
@@ -715,6 +714,7 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     # gusts takes these (not in the campaign's calibration pass: the vane's constants,
     # which it combines, moved with them on a course's straight maneuvers, the
     # angle-of-attack vane's position to 9.4 +- 0.7 m against a true 4)
+    straight = heading_excursion(task) < MIN_HEADING_CHANGE
     z_still, std_still = z, meas_std
     trim = np.zeros(n, dtype=bool)
     if plan["beta_pseudo"] and s["sideslip_prior"] == "trim" \
@@ -727,7 +727,7 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
             std_still[jb] = TRIM_SIDESLIP * math.sqrt(trim.sum())
         else:
             trim[:] = False
-            if heading_excursion(task) < MIN_HEADING_CHANGE:
+            if straight:
                 # straight: a turn's mean sideslip is not zero (a Cessna's turns at 50 m/s:
                 # 2-11e-3 rad off with this weight, 2-4e-3 without)
                 std_still[jb] = min(meas_std[jb], MEAN_SIDESLIP * math.sqrt(n))
@@ -747,7 +747,8 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
             start.P[20, 20] = min(start.P[20, 20], s["prior"]["vertical_wind"] ** 2)
         zs, zstd = (z, noise.measurement_std) if std > 0 else (z_still, std_still)
         with np.errstate(over="raise", invalid="raise", divide="raise"):
-            return run_filter(start, u, zs, dt, g, earth, FilterNoise(noise.input_std, q, zstd),
+            return run_filter(start, u, zs, dt, g, earth,
+                              FilterNoise(noise.input_std, q, zstd),
                               IteratedUpdate(tol=s["tol"], max_iter=s["max_iter"]), arm=arm,
                               specific_force=present["accelerometers"], gust_decay=decay,
                               second_order=mode == "cubic")
@@ -755,7 +756,6 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     air_data = [c for c in ("tas", "alpha", "beta") if c != "beta" or not plan["beta_pseudo"]]
     gust_held = {k: GUST_HELD_SCALE for k in SCALE_STATES if k not in plan["held"]}
     gust_held.update({k: GUST_HELD_POSITION for k in POSITION_STATES if k not in plan["held"]})
-    straight = heading_excursion(task) < MIN_HEADING_CHANGE
     if straight:
         gust_held.update({k: GUST_HELD_STRAIGHT for k in ("btas", "bbeta")
                           if k not in plan["held"]})
