@@ -16,6 +16,7 @@ from simplexspline.aero.identify import (
     Identification,
     IdentificationSettings,
     ThinDataWarning,
+    _imu_position_note,
     identify,
 )
 from simplexspline.aero.modelling.model import AeroModel
@@ -514,3 +515,27 @@ def test_a_coefficient_the_shared_validation_does_not_excite_is_validated_on_its
         assert summary["own_validation_maneuvers"] == {"Cm": m}
         assert any(w.startswith("Cm: the shared validation maneuvers do not excite it; "
                                 f"maneuver {m}") for w in res.warnings)
+
+
+def test_an_imported_record_without_the_imu_position_is_told_what_it_costs_cy():
+    """The side force's lever-arm part per metre along x is m (r' + p q) / (qbar S): the
+    note gives its RMS (here exactly 2e-3 per metre: constant columns), only for an
+    imported record whose metadata does not place the IMU, and only when CY is modelled."""
+    import pandas as pd
+
+    n = 50
+    data = pd.DataFrame({"mass": 1000.0, "rho": 1.0, "tas": 100.0, "p": 0.0, "q": 0.0,
+                         "r": 0.0, "pdot": 0.0, "rdot": np.full(n, 0.1),
+                         "CY": np.linspace(-0.05, 0.05, n)})
+    meta = {"S": 10.0, "import": {}}        # qbar S = 5e4 N: 1000 kg * 0.1 / 5e4 = 2e-3
+    note = _imu_position_note(data, IdentificationSettings(), meta)
+    assert re.match(r"the accelerometers' position is not given .* along x moves CY by "
+                    r"2\.0e-03 RMS in these data \(0\.07 of CY's own spread\), along z by "
+                    r"0\.0e\+00", note), note
+    assert "give [metadata.sensor_geometry.imu] position_m" in note
+    given = {**meta, "sensor_geometry": {"imu": {"position_m": [0.6, 0.0, 0.2]}}}
+    assert _imu_position_note(data, IdentificationSettings(), given) == ""
+    assert _imu_position_note(data, IdentificationSettings(), {"S": 10.0}) == ""   # simulated
+    assert _imu_position_note(data, IdentificationSettings(coefficients=("CX", "Cm")),
+                              meta) == ""
+    assert _imu_position_note(data.drop(columns="rdot"), IdentificationSettings(), meta) == ""

@@ -61,6 +61,9 @@ def _check(tmp_path, mapping, capsys):
     assert main(["import", str(mapping), "-o", str(flight), "-q"]) == 0
     assert main(["identify", str(flight), "-o", str(out), "--no-report", "-q"]) == 0
     summary = json.loads((out / "summary.json").read_text())
+    # the record's mapping gives no IMU position: what a lever arm would do to CY is said
+    imu = [w for w in summary["warnings"] if w.startswith("the accelerometers' position")]
+    assert len(imu) == 1 and "[metadata.sensor_geometry.imu]" in imu[0], summary["warnings"]
     r2 = {c: e["r2"] for c, e in summary["coefficients"].items()}
     assert set(r2) == {"CX", "CY", "CZ", "Cl", "Cm", "Cn"}
     assert all(v > 0 for v in r2.values()), r2
