@@ -782,10 +782,10 @@ def _imu_position_note(data, settings: IdentificationSettings, meta: Mapping) ->
     rx = float(np.sqrt(np.mean(per_x[ok] ** 2)))
     rz = float(np.sqrt(np.mean(per_z[ok] ** 2)))
     spread = float(np.std(col["CY"][ok]))
+    share = f" ({rx / spread:.2f} of CY's own spread)" if spread > 0 else ""
     return (f"the accelerometers' position is not given (metadata sensor_geometry.imu): "
             f"each metre of the IMU's distance from the c.g. along x moves CY by "
-            f"{rx:.1e} RMS in these data ({rx / spread:.2f} of CY's own spread), along z by "
-            f"{rz:.1e}; the side-force model takes it into its sideslip, rate and control "
+            f"{rx:.1e} RMS in these data{share}, along z by {rz:.1e}; the side-force model takes it into its sideslip, rate and control "
             "derivatives, and the data cannot take it out (the yaw and roll accelerations "
             "are linear in the same variables): give [metadata.sensor_geometry.imu] "
             "position_m from the installation drawings")
