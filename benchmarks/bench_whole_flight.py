@@ -152,7 +152,16 @@ def run_variant(record: Path, variant: str, flown: list, legs: list, truth: dict
     out["thrust_subtracted"] = (res.provenance["reconstruction"] or {}).get(
         "thrust_subtracted")
     out["rec"] = {c: _rms(rec[c] - rec["true_" + c]) for c in ("alpha", "beta", "tas")}
-    summ = res.summary()["coefficients"]
+    whole = res.summary()
+    summ = whole["coefficients"]
+    # which maneuvers validate (the split follows envelope cells in alpha, beta and Mach,
+    # so a change of the reconstruction can move it, and with it every R2 on a sparse course)
+    kinds = rec.groupby("maneuver")["maneuver_type"].first() \
+        if "maneuver_type" in rec.columns else None
+    out["validation"] = ", ".join(
+        f"{m}" + ("" if kinds is None else f" ({kinds.loc[m]})")
+        for m in whole["validation_maneuvers"]) + "".join(
+        f"; {c} also {m}" for c, m in whole["own_validation_maneuvers"].items())
     out["coef"] = {c: {k: summ[c].get(k) for k in ("r2", "rms_true_over_noise", "label")}
                    | {"excited": summ[c].get("diagnostics", {}).get("excitation", {})
                       .get("excited")} for c in summ}
@@ -199,6 +208,7 @@ def table(results: list, sim: dict) -> str:
         lambda r: "{found} / {flown} ({detected}, {spurious}, {merged})".format(**r["match"]))
     row("identify", lambda r: r.get("error", "ran to the end"))
     row("maneuvers rejected by the reconstruction", lambda r: str(r["rejected"]))
+    row("validation maneuvers (type)", lambda r: r["validation"])
     for c, unit in (("alpha", "rad"), ("beta", "rad"), ("tas", "m/s")):
         row(f"{c} RMS error, reconstructed (raw) [{unit}]",
             lambda r, c=c: f"{r['rec'][c]:.2e}" + (f" ({r['raw'][c]:.2e})" if c in r["raw"]
