@@ -539,3 +539,31 @@ def test_an_imported_record_without_the_imu_position_is_told_what_it_costs_cy():
     assert _imu_position_note(data, IdentificationSettings(coefficients=("CX", "Cm")),
                               meta) == ""
     assert _imu_position_note(data.drop(columns="rdot"), IdentificationSettings(), meta) == ""
+
+
+def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named():
+    """Three maneuvers, each alone in its envelope cells: the search's cross-validation
+    scores none of them (cv_scored_share 0), and the note names the two that move the
+    coefficient most, with their types. Where one of them is scored, no note."""
+    from simplexspline.aero.identify import _unscored_note
+    from simplexspline.aero.selection.search import cv_scored_share
+
+    man = np.repeat([0, 1, 2], 40)
+    cells = np.repeat([3, 7, 11], 40)                 # disjoint cells: nothing covered
+    rng = np.random.default_rng(0)
+    y = rng.normal(0.0, [1e-4] * 40 + [5e-3] * 40 + [4e-3] * 40)
+    cols = {"alpha": rng.normal(size=120)}
+    shares = cv_scored_share(cols, y, man, SelectionSettings(folds=3), seed=0, cells=cells)
+    assert shares == {0: 0.0, 1: 0.0, 2: 0.0}
+    types = np.repeat(["steady", "pulse-rudder", "doublet-rudder"], 40)
+    best = Structure("CY", ("alpha",), degree=1, continuity=0, resolution=(1,))
+    note = _unscored_note("CY", best, y, man, shares, types)
+    assert note.startswith("CY: the structure search's cross-validation scored none of the "
+                           "maneuvers that excite it most (1 (pulse-rudder), 2 "
+                           "(doublet-rudder))"), note
+    assert _unscored_note("CY", best, y, man, {**shares, 2: 0.5}, types) == ""
+    assert _unscored_note("CY", best, y, man, {}, types) == ""
+    # a shared cell: the maneuvers cover each other and are scored
+    both = cv_scored_share(cols, y, man, SelectionSettings(folds=3), seed=0,
+                           cells=np.zeros(120, dtype=int))
+    assert all(v == 1.0 for v in both.values())

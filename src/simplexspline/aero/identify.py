@@ -38,6 +38,7 @@ from simplexspline.aero.selection.search import (
     Trial,
     SearchCache,
     choose_prior_degree,
+    cv_scored_share,
     fit_structure,
     select_structure,
 )
@@ -54,6 +55,7 @@ from simplexspline.aero.variables import (
     TEST_POINT_VARIABLES,
 )
 from simplexspline.aero.selection.validation import (
+    EXCITED,
     PAPER_TABLE2,
     scores,
     scores_by_coverage,
@@ -1046,12 +1048,53 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                                          seed=settings.seed, prior_degree=prior_degree,
                                          cells=cells, cache=cache,
                                          duration_s=_duration(ident))
+        unscored = _unscored_note(c, best, y, mans, cv_scored_share(
+            columns, y, mans, settings.selection, seed=settings.seed, cells=cells),
+            ident["maneuver_type"].to_numpy() if "maneuver_type" in ident.columns else None)
+        if unscored:
+            notes.append(unscored)
     else:
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
     with compute_slot():
         return _fit_and_validate(c, best, history, prior_degree, prior_scores, ident, valid,
                                  columns, coverage, settings, has_truth, source, notes, warn,
                                  t0, busy0)
+
+
+#: A maneuver counts as scored by the structure search's cross-validation when at least
+#: this share of its samples is (:func:`_unscored_note`).
+SCORED_SHARE = 0.1
+
+
+def _unscored_note(c: str, best: Structure, y: np.ndarray, maneuvers: np.ndarray,
+                   shares: Mapping, types: np.ndarray | None) -> str:
+    """The note when the search's cross-validation scored none of the maneuvers that
+    excite ``c`` (within-maneuver standard deviation at least ``EXCITED`` times the
+    largest), or ''. Its structure was then chosen on data that barely move ``c``. On a
+    still-air course with one input per axis and test point, CY's two rudder maneuvers
+    were never scored (each alone in its envelope cells): the search scheduled CY on
+    alpha and Mach (12.95x the noise at a held-out turn), where a fixed structure with
+    unscheduled lateral derivatives was at 0.46x."""
+    if not shares:
+        return ""
+    ids, where = np.unique(maneuvers, return_inverse=True)
+    count = np.bincount(where)
+    mean = np.bincount(where, y) / count
+    spread = np.sqrt(np.bincount(where, (y - mean[where]) ** 2) / count)
+    if not spread.max() > 0:
+        return ""
+    moving = [i for i in np.argsort(-spread) if spread[i] >= EXCITED * spread.max()]
+    if any(shares.get(ids[i].item(), 1.0) >= SCORED_SHARE for i in moving):
+        return ""
+    first = {} if types is None else {m: types[k] for m, k in
+                                      zip(*np.unique(maneuvers, return_index=True))}
+    named = ", ".join(f"{ids[i]}" + (f" ({first[ids[i]]})" if ids[i] in first else "")
+                      for i in moving[:4])
+    return (f"{c}: the structure search's cross-validation scored none of the maneuvers "
+            f"that excite it most ({named}): each lies alone in its envelope cells, so its "
+            f"structure {best.label()} was chosen on data that barely move {c} and is "
+            "untested where it matters; fly those inputs twice per test point, or give the "
+            f"structure (IdentificationSettings.structures) with fewer scheduled terms")
 
 
 def _duration(data) -> float | None:

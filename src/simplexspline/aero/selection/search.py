@@ -63,8 +63,9 @@ from simplexspline.aero.selection.fold_equations import FoldEquations, fold_equa
 from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
 from simplexspline.spline import kernels
 
-__all__ = ["MOVE_KINDS", "PLAIN_FIT", "SearchCache", "SelectionSettings", "Trial", "choose_prior_degree",
-           "cv_score", "fit_structure", "select_structure"]
+__all__ = ["MOVE_KINDS", "PLAIN_FIT", "SearchCache", "SelectionSettings", "Trial",
+           "choose_prior_degree", "cv_score", "cv_scored_share", "fit_structure",
+           "select_structure"]
 
 
 #: The kinds of moves of the structure search (:attr:`SelectionSettings.moves`).
@@ -561,6 +562,34 @@ def _cv_setup(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
         box = in_training_box(cols, folds)
         scored = box if scored is None else scored & box
     return cols, ys, folds, scored, mans
+
+
+def cv_scored_share(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
+                    settings: SelectionSettings | None = None, *, seed: int = 0,
+                    conditions: np.ndarray | None = None,
+                    cells: np.ndarray | None = None) -> dict:
+    """The share of each maneuver's samples that the cross-validation of
+    :func:`select_structure` (same arguments) scores.
+
+    A held-out sample counts only where the training folds cover its envelope cell (and
+    box, with ``cv_box``). A maneuver flown alone in its cells (the one rudder pulse of a
+    test point) is never scored, so it cannot tell the candidate structures apart.
+
+    Returns
+    -------
+    dict of maneuver id to float
+        In [0, 1]; empty when the data have fewer than two maneuvers.
+    """
+    settings = settings or SelectionSettings()
+    setup = _cv_setup(columns, y, maneuvers, settings, seed, conditions, cells)
+    if setup is None:
+        return {}
+    scored, mans = setup[3], setup[4]
+    ids, where = np.unique(mans, return_inverse=True)
+    if scored is None:
+        return {m: 1.0 for m in ids.tolist()}
+    share = np.bincount(where, weights=scored.astype(float)) / np.bincount(where)
+    return dict(zip(ids.tolist(), share.tolist()))
 
 
 def in_training_box(columns: Mapping, folds: np.ndarray) -> np.ndarray:
