@@ -55,8 +55,8 @@ from simplexspline.aero.variables import (
     TEST_POINT_VARIABLES,
 )
 from simplexspline.aero.selection.validation import (
-    EXCITED,
     PAPER_TABLE2,
+    maneuver_spread,
     scores,
     scores_by_coverage,
     validation_split,
@@ -1077,13 +1077,12 @@ def _unscored_note(c: str, best: Structure, y: np.ndarray, maneuvers: np.ndarray
     unscheduled lateral derivatives was at 0.46x."""
     if not shares:
         return ""
-    ids, where = np.unique(maneuvers, return_inverse=True)
-    count = np.bincount(where)
-    mean = np.bincount(where, y) / count
-    spread = np.sqrt(np.bincount(where, (y - mean[where]) ** 2) / count)
-    if not spread.max() > 0:
+    ids = np.unique(maneuvers)
+    spread, level = maneuver_spread(maneuvers, len(ids), y)
+    spread, level = spread[:, 0], float(level[0])
+    if not np.isfinite(level):
         return ""
-    moving = [i for i in np.argsort(-spread) if spread[i] >= EXCITED * spread.max()]
+    moving = [i for i in np.argsort(-spread) if spread[i] >= level]
     if any(shares.get(ids[i].item(), 1.0) >= SCORED_SHARE for i in moving):
         return ""
     first = {} if types is None else {m: types[k] for m, k in

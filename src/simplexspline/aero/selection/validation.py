@@ -15,6 +15,7 @@ from simplexspline.errors import InputError
 
 __all__ = ["CONDITION_KEEP", "COVERED_KEEP", "EXCITED", "PAPER_TABLE2", "TOP_UP_GAIN",
            "ValidationSplit", "autocorrelation", "covered_in_fold", "fold_by_maneuver",
+           "maneuver_spread",
            "scores", "scores_by_coverage", "split_by_maneuver", "validation_split"]
 
 #: Fraction of each flight condition's samples that stays for identification when
@@ -195,12 +196,13 @@ def validation_split(maneuvers: np.ndarray, fraction: float = 0.25, *, seed: int
         min_count = threshold(left)
         own = [np.bincount(cells[where == i], minlength=len(left)) for i in range(len(ids))]
     chosen = []
-    spread, level = (None, None) if excitation is None else _excitation(
+    spread, level = (None, None) if excitation is None else maneuver_spread(
         maneuvers, len(ids), np.asarray(excitation, dtype=float))
     low, high = (None, None) if ranges is None else _maneuver_ranges(
         maneuvers, len(ids), np.asarray(ranges, dtype=float))
     if motion is not None:
-        moves, move_level = _excitation(maneuvers, len(ids), np.asarray(motion, dtype=float))
+        moves, move_level = maneuver_spread(maneuvers, len(ids),
+                                            np.asarray(motion, dtype=float))
         moves = moves >= move_level                          # (n_ids, m): motions made
         place = np.zeros(len(maneuvers), dtype=np.int64) if cells is None else cells
         own_cells = np.zeros((len(ids), int(place.max()) + 1))
@@ -296,7 +298,7 @@ def _quotas(sizes: np.ndarray, fraction: float, rng: np.random.Generator) -> np.
     return np.minimum(quota, sizes)
 
 
-def _excitation(maneuvers: np.ndarray, n_ids: int, signals: np.ndarray) -> tuple:
+def maneuver_spread(maneuvers: np.ndarray, n_ids: int, signals: np.ndarray) -> tuple:
     """Standard deviation of every signal within every maneuver, shape (n_ids, k) (-inf
     where fewer than two finite samples), and the level that counts as excited per signal
     (:data:`EXCITED` times the largest; infinite for a signal no maneuver moves)."""
