@@ -13,6 +13,7 @@ from simplexspline.aero.selection.coverage import (
     COVERAGE_MIN_COUNT,
     EnvelopeCells,
     covered_in_folds,
+    search_cells,
     threshold,
 )
 from simplexspline.aero.selection.diagnostics import VIF_LIMIT, collinearity, excitation
@@ -22,6 +23,7 @@ from simplexspline.aero.selection.validation import (
     scores_by_coverage,
     split_by_maneuver,
 )
+from simplexspline.aero.selection.search import SelectionSettings, cv_scored_share
 from simplexspline.errors import InputError
 
 
@@ -64,6 +66,49 @@ def test_covered_in_folds_counts_only_the_other_folds():
     assert not got[cells == 6].any()
     assert threshold(np.array([0, 0, 1000, 3000])) == pytest.approx(0.05 * 2000)
     assert threshold(np.array([0, 10, 10])) == COVERAGE_MIN_COUNT
+
+
+def _test_points(n_points=5, per=200, seed=2):
+    """A flight-test course: per test point (its own Mach number) an elevator, an aileron
+    and a rudder maneuver, the rudder one alone in reaching large sideslip."""
+    rng = np.random.default_rng(seed)
+    cols = {"alpha": [], "beta": [], "mach": []}
+    man, kind = [], []
+    for p in range(n_points):
+        for k, beta_amp in enumerate((0.002, 0.01, 0.08)):
+            cols["alpha"].append(0.06 + 0.01 * rng.standard_normal(per))
+            cols["beta"].append(beta_amp * np.sin(np.linspace(0, 6, per)))
+            cols["mach"].append(np.full(per, 0.3 + 0.1 * p) + 1e-3 * rng.standard_normal(per))
+            man.append(np.full(per, 3 * p + k))
+            kind.append(k)
+    return ({v: np.concatenate(x) for v, x in cols.items()}, np.concatenate(man),
+            np.array(kind))
+
+
+def test_a_lateral_search_scores_a_rudder_input_flown_once_per_test_point():
+    """Without the sideslip among the cells, the lateral coefficients' cross-validation
+    scores each test point's one rudder maneuver against the same test point's other
+    maneuvers; the longitudinal coefficients keep the sideslip and leave it unscored."""
+    cols, man, kind = _test_points()
+    env = EnvelopeCells.from_data(cols)
+    assert env.variables == ("alpha", "beta", "mach")
+    lateral = env.without(("beta",))
+    assert lateral.variables == ("alpha", "mach") and lateral.edges[0] is env.edges[0]
+    assert lateral.ncells == (len(env.edges[0]) + 1) * (len(env.edges[2]) + 1)
+    assert np.array_equal(search_cells(env, "CX", cols), env.cell(cols))
+    assert np.array_equal(search_cells(env, "Cm", cols), env.cell(cols))
+    cy = search_cells(env, "CY", cols)
+    assert np.array_equal(cy, lateral.cell(cols))
+    assert np.array_equal(search_cells(env, "Cn", cols), cy)
+    y = np.zeros(len(man))
+    rudder = [3 * p + 2 for p in range(5)]
+
+    def shares(cells):
+        got = cv_scored_share(cols, y, man, SelectionSettings(folds=3), seed=0, cells=cells)
+        return np.array([got[m] for m in rudder])
+
+    assert shares(env.cell(cols)).max() < 0.5          # large sideslip: alone in its cells
+    assert shares(cy).min() > 0.9                      # but the tails in alpha
 
 
 def test_split_never_holds_out_a_maneuver_that_only_it_flies():

@@ -44,7 +44,7 @@ from simplexspline.aero.selection.search import (
 )
 from simplexspline.aero.modelling.presets import preset
 from simplexspline.aero.modelling.structure import multiplier_values, Structure
-from simplexspline.aero.selection.coverage import EnvelopeCells
+from simplexspline.aero.selection.coverage import EnvelopeCells, search_cells
 from simplexspline.aero.selection.side_force_sideslip import REFEREE_GAIN, choose_sideslip
 from simplexspline.aero.selection.diagnostics import collinearity, excitation
 from simplexspline.aero.variables import (
@@ -1038,7 +1038,9 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         notes.append(msg)
         warn.append(msg)
     start = _drop_zero_multipliers(start, columns, notes, warn)
-    cells = coverage.ident_cells
+    # the search's coverage: without the sideslip for a lateral coefficient
+    cells = search_cells(coverage.envelope, c, {v: ident[v].to_numpy(dtype=float)
+                                                 for v in coverage.envelope.variables})
     cache = SearchCache()     # shared: the search starts where the prior's choice ended
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
                                                      settings.selection, seed=settings.seed,
@@ -1071,10 +1073,14 @@ def _unscored_note(c: str, best: Structure, y: np.ndarray, maneuvers: np.ndarray
     """The note when the search's cross-validation scored none of the maneuvers that
     excite ``c`` (within-maneuver standard deviation at least ``EXCITED`` times the
     largest), or ''. Its structure was then chosen on data that barely move ``c``. On a
-    still-air course with one input per axis and test point, CY's two rudder maneuvers
-    were never scored (each alone in its envelope cells): the search scheduled CY on
-    alpha and Mach (12.95x the noise at a held-out turn), where a fixed structure with
-    unscheduled lateral derivatives was at 0.46x."""
+    still-air course with one input per axis and test point, while the sideslip was
+    among the lateral searches' cells, CY's two rudder maneuvers were never scored: the
+    search scheduled CY on alpha and Mach (12.95x the noise at a held-out turn), where a
+    fixed structure with unscheduled lateral derivatives was at 0.46x. Without the
+    sideslip (:func:`~simplexspline.aero.selection.coverage.search_cells`) the search
+    scores that course's turns and aileron pulses in full, and CY is at 0.83x; its
+    rudder maneuvers, each at a Mach number no other identification maneuver flies, stay
+    unscored, and the note still names them."""
     if not shares:
         return ""
     ids = np.unique(maneuvers)

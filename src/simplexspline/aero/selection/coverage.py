@@ -16,6 +16,10 @@ error).
 
 A model is judged on covered samples; samples outside the coverage are reported on their
 own (an extrapolation is a different question from a fit).
+
+The structure search of a lateral coefficient (CY, Cl, Cn) judges coverage on the cells
+without the sideslip (:func:`search_cells`): there the sideslip is the excitation, not the
+flight condition.
 """
 
 from __future__ import annotations
@@ -25,11 +29,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simplexspline.aero.variables import ENVELOPE_VARIABLES
+from simplexspline.aero.variables import (
+    ENVELOPE_VARIABLES,
+    LATERAL_COEFFICIENTS,
+    LATERAL_VARIABLES,
+)
 from simplexspline.errors import InputError
 
 __all__ = ["COVERAGE_BINS", "COVERAGE_MIN_COUNT", "COVERAGE_SHARE", "EnvelopeCells",
-           "covered_in_folds", "threshold"]
+           "covered_in_folds", "search_cells", "threshold"]
 
 #: Cells per envelope variable.
 COVERAGE_BINS = 8
@@ -82,6 +90,11 @@ class EnvelopeCells:
             used.append(v)
             edges.append(inner)
         return cls(tuple(used), tuple(edges))
+
+    def without(self, variables: Sequence[str]) -> EnvelopeCells:
+        """The same grid with ``variables`` left out (their cells merged)."""
+        keep = [(v, e) for v, e in zip(self.variables, self.edges) if v not in variables]
+        return EnvelopeCells(tuple(v for v, _ in keep), tuple(e for _, e in keep))
 
     @property
     def ncells(self) -> int:
@@ -151,3 +164,36 @@ def covered_in_folds(cells: np.ndarray, folds: np.ndarray, ncells: int) -> np.nd
     others = table.sum(axis=0)[None, :] - table            # (k, ncells)
     limits = np.array([threshold(row) for row in others])
     return others[folds, cells] >= limits[folds]
+
+
+def search_cells(envelope: EnvelopeCells, coefficient: str, columns: Mapping) -> np.ndarray:
+    """The envelope cell of each sample as the structure search of ``coefficient`` judges
+    coverage: ``envelope``'s cells, without the lateral variables (the sideslip) for a
+    lateral coefficient.
+
+    A lateral coefficient is odd in the sideslip, and its lateral inputs are what make it
+    move; they are its excitation, not its flight condition. With the sideslip among the
+    cells, a lateral maneuver's samples count only where the other folds reached the same
+    sideslip at the same angle of attack and Mach number: a rudder input flown once per
+    test point is never scored, and neither is much of a turn or an aileron pulse. On a
+    still-air course with one input per axis the cross-validation scored 24 % of a turn
+    and 77 % of an aileron pulse (100 % of both without the sideslip), and the search
+    scheduled CY on alpha and Mach: 12.95x the noise at a held-out turn, 0.83x with these
+    cells. The longitudinal coefficients keep the sideslip: judged without it, CX reached
+    9-10x the noise on two such courses.
+
+    Parameters
+    ----------
+    envelope : EnvelopeCells
+        The cells of the identification data.
+    coefficient : str
+    columns : mapping of str to ndarray, shape (N,)
+        The samples (holding ``envelope``'s variables).
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+    """
+    if coefficient in LATERAL_COEFFICIENTS:
+        envelope = envelope.without(LATERAL_VARIABLES)
+    return envelope.cell(columns)
