@@ -517,6 +517,39 @@ def test_a_coefficient_the_shared_validation_does_not_excite_is_validated_on_its
                                 f"maneuver {m}") for w in res.warnings)
 
 
+def test_a_search_that_cannot_score_where_the_coefficient_moves_starts_linear(table):
+    """Cm moves (pitch damping) only in maneuver 0, flown at angles of attack no other
+    maneuver flies: the search's cross-validation cannot score it, so the search starts
+    from the linear model of Cm's terms instead of the scheduled start, and says so."""
+    from simplexspline.aero.modelling.auto import linear_start
+
+    data = table.copy()
+    man = data["maneuver"].to_numpy()
+    data.loc[man == 0, "alpha"] += 0.6
+    data["qhat"] *= np.where(man == 0, 5.0, 0.05)
+    rng = np.random.default_rng(2)
+    data["true_Cm"] = 0.01 + 0.02 * data["de"] - 8.0 * data["qhat"]
+    data["Cm"] = data["true_Cm"] + 1e-3 * rng.standard_normal(len(data))
+    start = Structure("Cm", ("alpha", "mach"), 3, 1, (3, 1), ("1", "qhat", "de"))
+    res = identify(data, settings=IdentificationSettings(
+        coefficients=("Cm",), structures={"Cm": start}, selection=FAST, workers=1))
+    assert 0 in set(res.identification["maneuver"])
+    first = res.results["Cm"].history[0].structure
+    assert first == linear_start(start)
+    assert (first.degree, first.resolution) == (0, (1,))
+    note = [w for w in res.warnings if "scored none of the maneuvers" in w]
+    assert len(note) == 1 and note[0].startswith("Cm: ") and "(0 (" in note[0]
+    assert "started from the linear model of its terms" in note[0]
+    # the same data with Cm moving everywhere: the scheduled start is kept
+    data["qhat"] = table["qhat"]
+    data["true_Cm"] = 0.01 + 0.02 * data["de"] - 8.0 * data["qhat"]
+    data["Cm"] = data["true_Cm"] + 1e-3 * rng.standard_normal(len(data))
+    res = identify(data, settings=IdentificationSettings(
+        coefficients=("Cm",), structures={"Cm": start}, selection=FAST, workers=1))
+    assert res.results["Cm"].history[0].structure == start
+    assert not any("scored none" in w for w in res.warnings)
+
+
 def test_an_imported_record_without_the_imu_position_is_told_what_it_costs_cy():
     """The side force's lever-arm part per metre along x is m (r' + p q) / (qbar S): the
     note gives its RMS (here exactly 2e-3 per metre: constant columns), only for an
@@ -543,9 +576,10 @@ def test_an_imported_record_without_the_imu_position_is_told_what_it_costs_cy():
 
 def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named():
     """Three maneuvers, each alone in its envelope cells: the search's cross-validation
-    scores none of them (cv_scored_share 0), and the note names the two that move the
-    coefficient most, with their types. Where one of them is scored, no note."""
-    from simplexspline.aero.identify import _unscored_note
+    scores none of them (cv_scored_share 0); the two that move the coefficient most are
+    untested, and the note names them with their types and the structure chosen. Where
+    one of them is scored, nothing is untested."""
+    from simplexspline.aero.identify import _unscored_note, _untested
     from simplexspline.aero.selection.search import cv_scored_share
 
     man = np.repeat([0, 1, 2], 40)
@@ -555,15 +589,18 @@ def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named
     cols = {"alpha": rng.normal(size=120)}
     shares = cv_scored_share(cols, y, man, SelectionSettings(folds=3), seed=0, cells=cells)
     assert shares == {0: 0.0, 1: 0.0, 2: 0.0}
+    assert _untested(y, man, shares) == [1, 2]
+    assert _untested(y, man, {**shares, 2: 0.5}) == []
+    assert _untested(y, man, {}) == []
     types = np.repeat(["steady", "pulse-rudder", "doublet-rudder"], 40)
     best = Structure("CY", ("alpha",), degree=1, continuity=0, resolution=(1,))
-    note = _unscored_note("CY", best, y, man, shares, types)
+    note = _unscored_note("CY", best, [1, 2], types, man)
     assert note.startswith("CY: the structure search's cross-validation scored none of the "
                            "maneuvers that excite it most (1 (pulse-rudder), 2 "
                            "(doublet-rudder))"), note
-    assert _unscored_note("CY", best, y, man, {**shares, 2: 0.5}, types) == ""
-    assert _unscored_note("CY", best, y, man, {}, types) == ""
+    assert "started from the linear model of its terms and chose CY(alpha) S^0_1" in note
     # a shared cell: the maneuvers cover each other and are scored
     both = cv_scored_share(cols, y, man, SelectionSettings(folds=3), seed=0,
                            cells=np.zeros(120, dtype=int))
     assert all(v == 1.0 for v in both.values())
+    assert _untested(y, man, both) == []

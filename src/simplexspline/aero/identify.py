@@ -31,7 +31,7 @@ from simplexspline.aero.data.thrust_coefficient import (
     THRUST_COEFFICIENT,
     thrust_coefficient,
 )
-from simplexspline.aero.modelling.auto import restrict_to_data
+from simplexspline.aero.modelling.auto import linear_start, restrict_to_data
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.search import (
     SelectionSettings,
@@ -1042,6 +1042,13 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     cells = search_cells(coverage.envelope, c, {v: ident[v].to_numpy(dtype=float)
                                                  for v in coverage.envelope.variables})
     cache = SearchCache()     # shared: the search starts where the prior's choice ended
+    untested: list = []
+    if settings.select:
+        # the maneuvers that move c, when the search's cross-validation can score none
+        untested = _untested(y, mans, cv_scored_share(columns, y, mans, settings.selection,
+                                                      seed=settings.seed, cells=cells))
+        if untested:
+            start = linear_start(start)
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
                                                      settings.selection, seed=settings.seed,
                                                      cells=cells, cache=cache)
@@ -1050,11 +1057,9 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                                          seed=settings.seed, prior_degree=prior_degree,
                                          cells=cells, cache=cache,
                                          duration_s=_duration(ident))
-        unscored = _unscored_note(c, best, y, mans, cv_scored_share(
-            columns, y, mans, settings.selection, seed=settings.seed, cells=cells),
-            ident["maneuver_type"].to_numpy() if "maneuver_type" in ident.columns else None)
-        if unscored:
-            notes.append(unscored)
+        if untested:
+            notes.append(_unscored_note(c, best, untested, ident["maneuver_type"].to_numpy()
+                                        if "maneuver_type" in ident.columns else None, mans))
     else:
         best, history = start, [Trial(start, float("nan"), 0, "fixed", accepted=True)]
     with compute_slot():
@@ -1068,38 +1073,47 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
 SCORED_SHARE = 0.1
 
 
-def _unscored_note(c: str, best: Structure, y: np.ndarray, maneuvers: np.ndarray,
-                   shares: Mapping, types: np.ndarray | None) -> str:
-    """The note when the search's cross-validation scored none of the maneuvers that
-    excite ``c`` (within-maneuver standard deviation at least ``EXCITED`` times the
-    largest), or ''. Its structure was then chosen on data that barely move ``c``. On a
-    still-air course with one input per axis and test point, while the sideslip was
-    among the lateral searches' cells, CY's two rudder maneuvers were never scored: the
-    search scheduled CY on alpha and Mach (12.95x the noise at a held-out turn), where a
-    fixed structure with unscheduled lateral derivatives was at 0.46x. Without the
-    sideslip (:func:`~simplexspline.aero.selection.coverage.search_cells`) the search
-    scores that course's turns and aileron pulses in full, and CY is at 0.83x; its
-    rudder maneuvers, each at a Mach number no other identification maneuver flies, stay
-    unscored, and the note still names them."""
+def _untested(y: np.ndarray, maneuvers: np.ndarray, shares: Mapping) -> list:
+    """The maneuvers that excite the coefficient ``y`` (within-maneuver standard deviation
+    at least ``EXCITED`` times the largest), most moving first, when the structure
+    search's cross-validation scores none of them (``shares``:
+    :func:`~simplexspline.aero.selection.search.cv_scored_share`; scored means at least
+    ``SCORED_SHARE`` of a maneuver's samples); otherwise [].
+
+    The search cannot then tell the candidate structures apart where the coefficient
+    moves. On a still-air course with one input per axis and test point, each rudder
+    maneuver flown at a Mach number that no other identification maneuver flew, the
+    search kept the scheduled start for Cn: 3.82x the noise at a held-out turn, where
+    the linear model was at 0.45x.
+    """
     if not shares:
-        return ""
+        return []
     ids = np.unique(maneuvers)
     spread, level = maneuver_spread(maneuvers, len(ids), y)
     spread, level = spread[:, 0], float(level[0])
     if not np.isfinite(level):
-        return ""
+        return []
     moving = [i for i in np.argsort(-spread) if spread[i] >= level]
     if any(shares.get(ids[i].item(), 1.0) >= SCORED_SHARE for i in moving):
-        return ""
+        return []
+    return [ids[i].item() for i in moving]
+
+
+def _unscored_note(c: str, best: Structure, untested: list, types: np.ndarray | None,
+                   maneuvers: np.ndarray) -> str:
+    """The note on a coefficient whose exciting maneuvers (``untested``: :func:`_untested`)
+    the search's cross-validation never scored: its search started from the linear model
+    of its terms (:func:`~simplexspline.aero.modelling.auto.linear_start`), and ``best``
+    is what the scored maneuvers supported beyond it."""
     first = {} if types is None else {m: types[k] for m, k in
                                       zip(*np.unique(maneuvers, return_index=True))}
-    named = ", ".join(f"{ids[i]}" + (f" ({first[ids[i]]})" if ids[i] in first else "")
-                      for i in moving[:4])
+    named = ", ".join(f"{m}" + (f" ({first[m]})" if m in first else "")
+                      for m in untested[:4])
     return (f"{c}: the structure search's cross-validation scored none of the maneuvers "
-            f"that excite it most ({named}): each lies alone in its envelope cells, so its "
-            f"structure {best.label()} was chosen on data that barely move {c} and is "
-            "untested where it matters; fly those inputs twice per test point, or give the "
-            f"structure (IdentificationSettings.structures) with fewer scheduled terms")
+            f"that excite it most ({named}): each lies alone in its envelope cells, so no "
+            "structure could be tested where it matters; the search started from the "
+            f"linear model of its terms and chose {best.label()} on the other maneuvers; "
+            "fly those inputs twice per test point to test a scheduled structure")
 
 
 def _duration(data) -> float | None:

@@ -31,7 +31,7 @@ from simplexspline.aero.variables import (
 from simplexspline.errors import InputError
 
 __all__ = ["AUTO_PRESET", "EVEN_LATERAL", "SCHEDULING_CANDIDATES", "candidate_terms",
-           "restrict_to_data"]
+           "linear_start", "restrict_to_data"]
 
 #: Lateral variables whose even terms (``v*v`` and ``|v|``) a longitudinal coefficient may
 #: get: the sideslip and the lateral controls (drag grows with the size of each).
@@ -59,6 +59,30 @@ def _start(coefficient: str) -> Structure:
 #: lateral controls (CY, Cl, Cn). Columns the data lack are left out
 #: (:func:`restrict_to_data`).
 AUTO_PRESET: dict[str, Structure] = {c: _start(c) for c in COEFFICIENTS}
+
+
+def linear_start(structure: Structure) -> Structure:
+    """``structure``'s terms with constant multipliers: a linear model in its terms (one
+    cell of degree 0 over its first variable, no knots). A structure without multipliers
+    (a plain spline) becomes one linear polynomial over its variables.
+
+    Where the structure search starts when its cross-validation cannot score any of the
+    maneuvers that move the coefficient (``identify``): a scheduled term must then earn
+    its place on the maneuvers that are scored, instead of being kept because nothing
+    could test it.
+
+    Examples
+    --------
+    >>> s = linear_start(AUTO_PRESET["Cn"])
+    >>> (s.variables, s.degree, s.resolution, s.multipliers)
+    (('alpha',), 0, (1,), ('1', 'beta', 'phat', 'rhat', 'da', 'dr'))
+    """
+    if not structure.multipliers:
+        n = len(structure.variables)
+        return Structure(structure.coefficient, structure.variables, degree=1, continuity=0,
+                         resolution=(1,) * n, cellwise=True)
+    return Structure(structure.coefficient, structure.variables[:1], degree=0, continuity=-1,
+                     resolution=(1,), multipliers=structure.multipliers)
 
 
 def candidate_terms(coefficient: str, available: Sequence[str],
