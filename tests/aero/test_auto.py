@@ -13,6 +13,7 @@ from simplexspline.aero.modelling.auto import (
     AUTO_PRESET,
     EVEN_LATERAL,
     candidate_terms,
+    linear_start,
     restrict_to_data,
 )
 from simplexspline.aero.modelling.notation import multiplier_factors, multiplier_parts
@@ -100,6 +101,43 @@ def _data(n_man=16, samples=600, seed=1, noise=2e-3):
                      ("man", np.full(samples, m))):
             cols[k].append(v)
     return {k: np.concatenate(v) for k, v in cols.items()}
+
+
+def test_linear_start_keeps_the_terms_and_drops_the_schedule():
+    s = linear_start(AUTO_PRESET["CY"])
+    assert (s.variables, s.degree, s.continuity, s.resolution, s.knots) == \
+        (("alpha",), 0, -1, (1,), ())
+    assert s.multipliers == AUTO_PRESET["CY"].multipliers
+    plain = linear_start(Structure("CZ", ("alpha", "mach", "de"), 3, 1, (3, 1, 2)))
+    assert (plain.variables, plain.degree, plain.resolution, plain.cellwise) == \
+        (("alpha", "mach", "de"), 1, (1, 1, 1), True)
+    d = _data(n_man=6, samples=300)
+    cols = {k: d[k] for k in ("alpha", "mach", "de", "qhat")}
+    y = 0.01 - 0.5 * d["qhat"] + 0.1 * d["de"]          # linear in the terms: reproduced
+    fit = fit_structure(linear_start(Structure("Cm", ("alpha", "mach"), 3, 1, (3, 1),
+                                               ("1", "qhat", "de"))), cols, y)
+    assert np.max(np.abs(fit.predict(cols) - y)) < 1e-9
+
+
+def test_a_search_stuck_above_the_linear_model_restarts_from_it():
+    """A truth linear in its terms, a start scheduled finely on alpha and Mach and a search
+    without moves (it cannot leave the start): the linear model cross-validates better,
+    the search restarts from it and returns it; the history's accepted trials are the
+    path to the result. Without linear_restart the start stays."""
+    rng = np.random.default_rng(3)
+    d = _data(n_man=8, samples=400)
+    cols = {k: d[k] for k in ("alpha", "mach", "de", "qhat", "beta")}
+    y = 0.02 - 1.5 * d["qhat"] + 0.2 * d["de"] + 2e-3 * rng.standard_normal(len(d["man"]))
+    start = Structure("Cm", ("alpha", "mach"), 3, 1, (4, 3), ("1", "qhat", "de"))
+    still = SelectionSettings(moves=(), max_samples=20_000)
+    best, history = select_structure(start, cols, y, d["man"], still)
+    assert best == linear_start(start)
+    assert [t.move for t in history if t.accepted] == ["linear start"]
+    scores = {t.move: t.score for t in history}
+    assert scores["linear start"] < scores["start"]
+    best, history = select_structure(start, cols, y, d["man"],
+                                     replace(still, linear_restart=False))
+    assert best == start and [t.move for t in history] == ["start"]
 
 
 def test_schedule_moves_promote_and_demote():
