@@ -819,20 +819,20 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
 
         score.place = place
     with kernels.one_blas_thread():
-        best, history = _search(start, settings, available, budget, score, ranges, kinks,
-                                joint)
+        best, found = _search(start, settings, available, budget, score, ranges, kinks,
+                              joint)
+        history = score.history
         linear = linear_start(start)
         if not settings.linear_restart or linear == start:
             return best, history
-        found = score(best, 0, "")                        # scored: read from the search
         first = [t.accepted for t in history]
         if not score(linear, 0, "linear start") < found:
             return best, history
         for t in history:                                 # accepted: the path to the result
             t.accepted = False
-        again, _ = _search(linear, settings, available, budget, score, ranges, kinks, joint,
-                           label="linear start")
-        if score(again, 0, "") < found:
+        again, again_score = _search(linear, settings, available, budget, score, ranges,
+                                     kinks, joint, label="linear start")
+        if again_score < found:
             return again, history
         for t, a in zip(history, first + [False] * (len(history) - len(first))):
             t.accepted = a                                # the first search's result stays
@@ -965,6 +965,8 @@ def _moves(s: Structure, settings, available, kinks, joint=None) -> list:
 
 def _search(start, settings, available, budget, score, ranges=None, kinks=None,
             joint=None, label: str = "start"):
+    """The greedy search from ``start`` (its trials appended to ``score.history``): the
+    best structure and its CV score."""
     best = start
     best_score = score(start, 0, label)
     history = score.history
@@ -1003,7 +1005,7 @@ def _search(start, settings, available, budget, score, ranges=None, kinks=None,
             if c < best_score * (1.0 - settings.min_improvement):
                 best, best_score = _accept(history, again, c)
                 best, best_score = _place(best, best_score, move, rnd, score)
-    return best, history
+    return best, best_score
 
 
 def _place(best: Structure, best_score: float, move: str, rnd: int, score) -> tuple:
