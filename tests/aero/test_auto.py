@@ -104,6 +104,8 @@ def _data(n_man=16, samples=600, seed=1, noise=2e-3):
 
 
 def test_linear_start_keeps_the_terms_and_drops_the_schedule():
+    """Constant multipliers over one cell; the scheduling variables of the coefficient's
+    own parity join the terms (a lateral coefficient does not get alpha)."""
     s = linear_start(AUTO_PRESET["CY"])
     assert (s.variables, s.degree, s.continuity, s.resolution, s.knots) == \
         (("alpha",), 0, -1, (1,), ())
@@ -111,9 +113,16 @@ def test_linear_start_keeps_the_terms_and_drops_the_schedule():
     plain = linear_start(Structure("CZ", ("alpha", "mach", "de"), 3, 1, (3, 1, 2)))
     assert (plain.variables, plain.degree, plain.resolution, plain.cellwise) == \
         (("alpha", "mach", "de"), 1, (1, 1, 1), True)
+    # a longitudinal start keeps its scheduling variables as linear terms: the pitch
+    # stiffness (without alpha, a course's Cm_alpha came out 0)
+    cm = linear_start(AUTO_PRESET["Cm"])
+    assert cm.multipliers == AUTO_PRESET["Cm"].multipliers + ("alpha", "mach")
+    assert linear_start(Structure("Cn", ("alpha", "beta"), 2, 1, (2, 2),
+                                  ("1", "rhat"))).multipliers == ("1", "rhat", "beta")
     d = _data(n_man=6, samples=300)
     cols = {k: d[k] for k in ("alpha", "mach", "de", "qhat")}
-    y = 0.01 - 0.5 * d["qhat"] + 0.1 * d["de"]          # linear in the terms: reproduced
+    # linear in the terms and in alpha and Mach: reproduced
+    y = 0.01 - 0.6 * d["alpha"] + 0.02 * d["mach"] - 0.5 * d["qhat"] + 0.1 * d["de"]
     fit = fit_structure(linear_start(Structure("Cm", ("alpha", "mach"), 3, 1, (3, 1),
                                                ("1", "qhat", "de"))), cols, y)
     assert np.max(np.abs(fit.predict(cols) - y)) < 1e-9

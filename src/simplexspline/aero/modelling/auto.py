@@ -62,27 +62,39 @@ AUTO_PRESET: dict[str, Structure] = {c: _start(c) for c in COEFFICIENTS}
 
 
 def linear_start(structure: Structure) -> Structure:
-    """``structure``'s terms with constant multipliers: a linear model in its terms (one
-    cell of degree 0 over its first variable, no knots). A structure without multipliers
-    (a plain spline) becomes one linear polynomial over its variables.
+    """``structure``'s terms with constant multipliers: a linear model in its terms and in
+    its scheduling variables (one cell of degree 0 over its first variable, no knots; the
+    scheduling variables of the coefficient's own parity join the multipliers). A
+    structure without multipliers (a plain spline) becomes one linear polynomial over its
+    variables.
 
     Where the structure search starts when its cross-validation cannot score any of the
     maneuvers that move the coefficient (``identify``): a scheduled term must then earn
     its place on the maneuvers that are scored, instead of being kept because nothing
-    could test it.
+    could test it. The scheduling variables stay as linear terms: a pitching moment
+    ``Cm0 + Cm_q qhat + Cm_de de`` without the angle of attack has no pitch stiffness,
+    and on a flight-test course its elevator derivative took the trim curve (the
+    elevator and alpha move together between stationary points), so the search dropped
+    the elevator too and the model's Cm_alpha was 0. The lateral coefficients do not get
+    alpha or Mach (their linear terms are odd in the lateral variables).
 
     Examples
     --------
     >>> s = linear_start(AUTO_PRESET["Cn"])
     >>> (s.variables, s.degree, s.resolution, s.multipliers)
     (('alpha',), 0, (1,), ('1', 'beta', 'phat', 'rhat', 'da', 'dr'))
+    >>> linear_start(AUTO_PRESET["Cm"]).multipliers
+    ('1', 'qhat', 'de', 'alpha', 'mach')
     """
     if not structure.multipliers:
         n = len(structure.variables)
         return Structure(structure.coefficient, structure.variables, degree=1, continuity=0,
                          resolution=(1,) * n, cellwise=True)
+    lateral = structure.coefficient in LATERAL_COEFFICIENTS
+    own = tuple(v for v in structure.variables if (v in LATERAL_VARIABLES) == lateral
+                and v not in structure.multipliers)
     return Structure(structure.coefficient, structure.variables[:1], degree=0, continuity=-1,
-                     resolution=(1,), multipliers=structure.multipliers)
+                     resolution=(1,), multipliers=structure.multipliers + own)
 
 
 def candidate_terms(coefficient: str, available: Sequence[str],
