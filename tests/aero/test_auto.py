@@ -34,6 +34,7 @@ from simplexspline.aero.variables import (
     COEFFICIENTS,
     LATERAL_COEFFICIENTS,
     LATERAL_VARIABLES,
+    THRUST_VARIABLES,
 )
 from simplexspline.aero.config import parse_structure
 from simplexspline.errors import InputError
@@ -47,9 +48,14 @@ def test_candidate_terms_respect_the_mirror_symmetry(coef, available):
     for t in terms:
         factors = multiplier_factors(t)
         assert all(f in available for f in factors)
+        if lateral and t in THRUST_VARIABLES:
+            continue          # the power plant's torque and swirl (checked below)
         odd = sum(f in LATERAL_VARIABLES for f in factors) % 2 == 1 and "|" not in t
         # lateral coefficients are odd in the lateral variables, longitudinal ones even
         assert odd == lateral, (coef, t)
+    # the thrust coefficient is offered to every coefficient: a propeller's torque rolls
+    # and its swirl yaws the aircraft in proportion to the power
+    assert {v for v in THRUST_VARIABLES if v in available} <= set(terms)
     if not lateral:
         for v in EVEN_LATERAL:
             if v in available:
@@ -101,6 +107,37 @@ def _data(n_man=16, samples=600, seed=1, noise=2e-3):
                      ("man", np.full(samples, m))):
             cols[k].append(v)
     return {k: np.concatenate(v) for k, v in cols.items()}
+
+
+def test_a_propellers_torque_in_the_roll_moment_is_found_on_the_thrust_coefficient():
+    """A roll moment with a torque term in proportion to the power (tc_ff varies between
+    maneuvers and within them): the search adds tc_ff to Cl's terms and recovers it;
+    before the thrust was offered to the lateral coefficients it could not."""
+    rng = np.random.default_rng(7)
+    n_man, samples = 8, 400
+    t = np.arange(samples) * 0.01
+    cols = {k: [] for k in ("alpha", "beta", "phat", "da", "tc_ff", "man")}
+    for m in range(n_man):
+        def wave(amp, centre=0.0):
+            f, ph = rng.uniform(0.2, 1.0, 2), rng.uniform(0, 2 * np.pi, 2)
+            return centre + amp * np.sin(2 * np.pi * f[:, None] * t + ph[:, None]).sum(0) / 2
+
+        for k, v in (("alpha", wave(0.02, 0.08)), ("beta", wave(0.05)),
+                     ("phat", wave(0.02)), ("da", wave(0.05)),
+                     ("tc_ff", wave(0.002, rng.uniform(0.005, 0.03))),
+                     ("man", np.full(samples, m))):
+            cols[k].append(v)
+    cols = {k: np.concatenate(v) for k, v in cols.items()}
+    truth = -0.08 * cols["beta"] - 0.4 * cols["phat"] + 0.1 * cols["da"] \
+        + 0.3 * cols["tc_ff"]
+    y = truth + 1e-4 * rng.standard_normal(len(truth))
+    start = Structure("Cl", ("alpha",), 0, -1, (1,), ("1", "beta", "phat", "da"))
+    best, _ = select_structure(start, {k: v for k, v in cols.items() if k != "man"}, y,
+                               cols["man"], SelectionSettings(moves=("variables",),
+                                                              max_samples=20_000))
+    assert "tc_ff" in best.multipliers
+    fit = fit_structure(best, cols, y)
+    assert np.sqrt(np.mean((fit.predict(cols) - truth) ** 2)) < 3e-5
 
 
 def test_linear_start_keeps_the_terms_and_drops_the_schedule():
@@ -192,7 +229,8 @@ def test_lateral_coefficients_never_get_even_terms():
     for move, cand in neighbours(s, SelectionSettings(), list(CANDIDATE_VARIABLES)):
         if move.startswith("add multiplier"):
             term = move.split()[-1]
-            assert "|" not in term and "*" not in term and term in LATERAL_VARIABLES
+            assert "|" not in term and "*" not in term
+            assert term in LATERAL_VARIABLES or term in THRUST_VARIABLES
 
 
 def test_kink_positions_follow_the_data_and_keep_the_symmetry():

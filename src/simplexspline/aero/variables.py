@@ -12,7 +12,7 @@ import math
 __all__ = ["CANDIDATE_VARIABLES", "COEFFICIENTS", "DEG", "ENVELOPE_VARIABLES", "FLOW_ANGLES",
            "LATERAL_COEFFICIENTS", "LATERAL_VARIABLES", "LONGITUDINAL_COEFFICIENTS",
            "MOTION_VARIABLES", "RATE_NAMES", "RATES_OF_FORCES", "TEST_POINT_VARIABLES",
-           "UNITS"]
+           "THRUST_VARIABLES", "UNITS"]
 
 #: Radians per degree (multiply a value in degrees by ``DEG`` to get radians).
 DEG = math.pi / 180.0
@@ -34,6 +34,13 @@ CANDIDATE_VARIABLES: tuple[str, ...] = ("alpha", "beta", "mach", "phat", "qhat",
                                         "de", "da", "dr", "alphadot_hat", "betadot_hat",
                                         "flap", "gear", "speedbrake", "dte", "mass", "tc",
                                         "tc_ff", "tc_n1")
+
+#: The thrust coefficient and its stand-ins (:data:`CANDIDATE_VARIABLES`). The power plant
+#: need not share the airframe's mirror symmetry: a propeller's torque rolls the aircraft
+#: and its swirl and p-factor yaw it, in proportion to the power. The structure search
+#: offers them to the lateral coefficients too
+#: (:func:`~simplexspline.aero.modelling.auto.candidate_terms`).
+THRUST_VARIABLES: tuple[str, ...] = ("tc", "tc_ff", "tc_n1")
 
 #: The flow-angle rates and the force coefficients that make them. By the equations of
 #: motion ``alpha' = (u w' - w u') / (u^2 + w^2)`` holds ``X/m`` and ``Z/m`` (``w' = Z/m +

