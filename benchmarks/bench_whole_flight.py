@@ -161,10 +161,14 @@ def run_variant(record: Path, variant: str, flown: list, legs: list, truth: dict
     out["validation"] = ", ".join(
         f"{m}" + ("" if kinds is None else f" ({kinds.loc[m]})")
         for m in whole["validation_maneuvers"]) + "".join(
-        f"; {c} also {m}" for c, m in whole["own_validation_maneuvers"].items())
+        f"; {c} left out {m}" for c, m in whole["left_out_validation_maneuvers"].items())
+    # R2 on the whole validation (a left-out maneuver's prediction included); the error
+    # against the truth of the delivered model, on the maneuvers it never saw ('shared')
     out["coef"] = {c: {k: summ[c].get(k) for k in ("r2", "rms_true_over_noise", "label")}
                    | {"excited": summ[c].get("diagnostics", {}).get("excitation", {})
-                      .get("excited")} for c in summ}
+                      .get("excited"), "left_out": "left_out" in summ[c]}
+                   | ({"rms_true_over_noise": summ[c]["shared"]["rms_true_over_noise"]}
+                      if "shared" in summ[c] else {}) for c in summ}
     out["warnings"] = list(res.warnings)
     models = {c: r.model for c, r in res.results.items()}
     t0 = time.perf_counter()
@@ -216,7 +220,8 @@ def table(results: list, sim: dict) -> str:
     for c in COEF:
         row(f"{c} validation R2 (RMS vs truth / noise)",
             lambda r, c=c: (f"{r['coef'][c]['r2']:.3f} ({r['coef'][c]['rms_true_over_noise']:.2f})"
-                            + ("" if r["coef"][c]["excited"] else ", barely excited")))
+                            + ("" if r["coef"][c]["excited"] else ", barely excited")
+                            + (", one maneuver left out" if r["coef"][c]["left_out"] else "")))
     row("CL_alpha [1/rad] reference; per leg (truth "
         f"{sim['truth']['CL_alpha']:.2f})",
         lambda r: f"{r['CL_alpha'][0]:.2f}; " + ", ".join(f"{x:.2f}" for x in r["CL_alpha"][1:]))

@@ -9,7 +9,6 @@ from hypothesis import strategies as st
 
 from simplexspline.aero.selection.validation import (
     CONDITION_KEEP,
-    TOP_UP_GAIN,
     autocorrelation,
     covered_in_fold,
     fold_by_maneuver,
@@ -224,6 +223,28 @@ def test_a_signal_only_one_maneuver_moves_stays_in_identification():
         assert 4 not in np.unique(man[val])         # the only maneuver that moves signal 1
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_a_signal_only_one_maneuver_moves_is_validated_by_leaving_it_out(seed):
+    """Signal 1 moves in maneuver 4 alone (a course's one short period): it cannot be held
+    out, so no validation maneuver moves signal 1 and none can be added; the split names
+    maneuver 4 for a left-out validation of signal 1, and none for the signals that the
+    validation moves. Without the excitation signals there is nothing to name."""
+    man, signals, kind = _one_axis_maneuvers(np.random.default_rng(seed),
+                                             axes=(0, 0, 0, 0, 1))
+    split = validation_split(man, 0.25, seed=seed, groups=kind, excitation=signals)
+    held = set(np.unique(man[split.validation]).tolist())
+    assert 4 not in held
+    assert split.left_out[1] == 4
+    assert split.left_out[0] is None          # the held-out maneuvers move signal 0
+    assert validation_split(man, 0.25, seed=seed, groups=kind).left_out == ()
+    # a signal that only noise moves has nothing worth leaving out
+    flat = signals.copy()
+    flat[:, 1] = 0.01 * np.random.default_rng(seed).standard_normal(len(man))
+    flat[man == 4, 1] *= 1.5
+    split = validation_split(man, 0.25, seed=seed, groups=kind, excitation=flat)
+    assert split.left_out[1] is None
+
+
 def _refused_exciters(weak: float, n=200):
     """Ten maneuvers, each of its own kind, flown from full to empty tanks. Signal 0
     moves in all of them but 0 and 9; signal 1 moves strongly in 0 and 9 only (the
@@ -243,39 +264,26 @@ def _refused_exciters(weak: float, n=200):
 
 
 @pytest.mark.parametrize("seed", range(8))
-def test_a_signal_the_rules_leave_unexcited_gets_a_maneuver_of_its_own(seed):
-    """Every maneuver that excites signal 1 is refused (the mass range), so the shared
-    validation does not move it: it gets one of the two weaker maneuvers that do, held
-    out for it alone, the other staying for identification; the shared split is
-    untouched and signal 0 (excited in it) gets none."""
+def test_a_signal_the_rules_leave_unexcited_is_validated_by_leaving_its_exciter_out(seed):
+    """Every maneuver that excites signal 1 is refused (the mass range keeps 0 and 9 for
+    identification; 4 and 5 move it by a fifth as much, below what counts as excited):
+    the strongest exciter is named for a left-out validation of signal 1, the shared
+    split is untouched, and signal 0, excited in it, gets none. Until stop 40 one of the
+    weaker maneuvers was held out for signal 1 alone: identification data taken for a
+    validation that still did not excite it."""
     man, signals, mass = _refused_exciters(weak=0.2)
     split = validation_split(man, 0.25, seed=seed, excitation=signals, ranges=mass)
     np.testing.assert_array_equal(split.validation, split_by_maneuver(
         man, 0.25, seed=seed, excitation=signals, ranges=mass))
     held = set(np.unique(man[split.validation]).tolist())
     assert not held & {0, 9}
-    assert split.added[0] is None
-    if held & {4, 5}:                   # the draw took one: signal 1 moves in validation
-        assert split.added[1] is None
-    else:
-        assert split.added[1] in (4, 5)
-        own = set(np.unique(man[split.validation_of(man, 1)]).tolist())
-        assert own == held | {split.added[1]}
-        np.testing.assert_array_equal(split.validation_of(man, 0), split.validation)
-    assert any(validation_split(man, 0.25, seed=s, excitation=signals, ranges=mass).added[1]
-               is not None for s in range(8))
-
-
-def test_a_maneuver_of_its_own_must_move_the_signal_well_beyond_the_validation():
-    """Moving signal 1 only about twice as much as the noise of the shared validation,
-    the weaker maneuvers are not worth taking from identification (TOP_UP_GAIN = 3)."""
-    assert TOP_UP_GAIN == 3.0
-    man, signals, mass = _refused_exciters(weak=0.02)
-    for seed in range(8):
-        split = validation_split(man, 0.25, seed=seed, excitation=signals, ranges=mass)
-        assert split.added == (None, None)
-    # without excitation signals there is nothing to add
-    assert validation_split(man, 0.25, seed=0).added == ()
+    assert split.left_out[0] is None and split.left_out[1] in (0, 9)
+    # moving signal 1 by half as much, a weaker maneuver excites it: the draw holds one
+    # out for every signal and nothing is left out
+    man, signals, mass = _refused_exciters(weak=0.5)
+    split = validation_split(man, 0.25, seed=seed, excitation=signals, ranges=mass)
+    assert set(np.unique(man[split.validation]).tolist()) & {4, 5}
+    assert split.left_out == (None, None)
 
 
 @pytest.mark.parametrize("seed", range(8))

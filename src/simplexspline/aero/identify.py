@@ -241,20 +241,19 @@ class Identification:
         outputs ``model_<C>``, ``inside_<C>`` (bool: inside the envelope and inside the
         model's identified box, where its scores count) and ``inside_envelope`` (bool:
         the sample lies in an envelope cell the identification data cover) added to
-        ``validation``. A maneuver held out for one coefficient alone (``own_validation``)
-        stays in ``identification``, with that coefficient's ``model_<C>`` and
-        ``inside_<C>`` there.
+        ``validation``.
     settings : IdentificationSettings
     metadata : dict
         Flight-data metadata.
     provenance : dict
         Input hash, package version, times, reconstruction summary.
     warnings : list of str
-    own_validation : dict of str to maneuver id
-        Coefficients that the shared validation maneuvers do not excite, and the maneuver
-        held out for each alone (:class:`~simplexspline.aero.selection.validation.
-        ValidationSplit`, ``added``): its model was identified without it and validated
-        on it too.
+    left_out_validation : dict of str to maneuver id
+        Coefficients that the validation maneuvers barely excite, and the identification
+        maneuver that excites each most
+        (``ValidationSplit.left_out``): a model of the same structure identified without
+        it predicts it, and the validation scores hold that prediction
+        (``validation['left_out']``); the delivered model is identified on it.
     """
 
     results: dict
@@ -264,20 +263,7 @@ class Identification:
     metadata: dict
     provenance: dict
     warnings: list = field(default_factory=list)
-    own_validation: dict = field(default_factory=dict)
-
-    def identification_of(self, c: str):
-        """The samples coefficient ``c``'s model was identified on (pandas.DataFrame)."""
-        if c not in self.own_validation:
-            return self.identification
-        return _moved(self.identification, self.validation, self.own_validation[c])[0]
-
-    def validation_of(self, c: str):
-        """The samples coefficient ``c``'s model was validated on (pandas.DataFrame): the
-        shared validation maneuvers and its own (``own_validation``), if any."""
-        if c not in self.own_validation:
-            return self.validation
-        return _moved(self.identification, self.validation, self.own_validation[c])[1]
+    left_out_validation: dict = field(default_factory=dict)
 
     @property
     def has_truth(self) -> bool:
@@ -314,8 +300,8 @@ class Identification:
                    int(m) for m in np.unique(self.identification["maneuver"])),
                "validation_maneuvers": sorted(
                    int(m) for m in np.unique(self.validation["maneuver"])),
-               "own_validation_maneuvers": {c: int(m) for c, m in
-                                            self.own_validation.items()},
+               "left_out_validation_maneuvers": {c: int(m) for c, m in
+                                                 self.left_out_validation.items()},
                "warnings": list(self.warnings),
                "coefficients": {}}
         for c, res in self.results.items():
@@ -332,7 +318,7 @@ class Identification:
                      "seconds": round(res.seconds, 3),
                      "selection": [t.to_dict() for t in res.history]}
             for k in ("rms_true", "rrms_true", "noise_rms", "rms_true_over_noise",
-                      "coverage", "outside"):
+                      "coverage", "outside", "left_out", "shared"):
                 if k in v:
                     entry[k] = v[k]
             if res.diagnostics:
@@ -536,14 +522,15 @@ def identify(df, metadata: Mapping | None = None, *,
     structures = settings.starting_structures()
     data, rec_note, used, settings, dropped, gusty = _identification_data(
         df, meta, settings, structures, progress, log)
-    ident, valid, coverage, own, own_notes = _split(data, settings, log)
+    ident, valid, coverage, left = _split(data, settings, log)
     columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
                if c in used or c in settings.selection.candidates}
     columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
     results, notes, sideslip = _fit_all(structures, ident, valid, columns,
-                                        _Splits(coverage, own), settings, source, progress,
+                                        _Splits(coverage, left), settings, source,
+                                        progress,
                                         log, gusty)
-    notes = dropped + own_notes + notes
+    notes = dropped + notes
     prov = {"software": f"simplexspline {__version__}",
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "seconds": round(time.perf_counter() - t_start, 2),
@@ -552,7 +539,8 @@ def identify(df, metadata: Mapping | None = None, *,
         prov["sideslip"] = sideslip
     if source:
         prov["source"] = source
-    out = Identification(results, ident, valid, settings, meta, prov, notes, own)
+    left = {c: m for c, m in left.items() if "left_out" in results[c].validation}
+    out = Identification(results, ident, valid, settings, meta, prov, notes, left)
     _record_provenance(results, out, meta, settings, prov)
     return out
 
@@ -705,8 +693,6 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, splits: _Split
     for c in others:
         for k in (f"model_{c}", f"inside_{c}"):
             valid[k] = frames["validation"][k]
-            if k in frames["identification"].columns:       # its own validation maneuver
-                ident[k] = frames["identification"][k]
     record = {"source": "side force through CY's model (beta + (CY - CY_model) / "
                         "(dCY/dbeta); cross-fitted by maneuver on the identification data) "
                         "in the maneuvers with gusts; CY on the kinematic sideslip",
@@ -795,48 +781,20 @@ def _imu_position_note(data, settings: IdentificationSettings, meta: Mapping) ->
 
 @dataclass(frozen=True)
 class _Coverage:
-    """The envelope cells of the identification samples and which validation samples lie
-    where the identification data are (see :mod:`simplexspline.aero.selection.coverage`)."""
+    """Which validation samples lie where the identification data are, and the envelope
+    cells that say so (see :mod:`simplexspline.aero.selection.coverage`)."""
 
-    ident_cells: np.ndarray
     valid_covered: np.ndarray
-    valid_cells: np.ndarray
     envelope: EnvelopeCells
 
 
 @dataclass(frozen=True)
 class _Splits:
-    """The shared split's coverage and the maneuvers held out for one coefficient alone
-    (:attr:`Identification.own_validation`)."""
+    """The shared split's coverage and the maneuvers validated by leaving them out
+    (:attr:`Identification.left_out_validation`, candidates per coefficient)."""
 
     coverage: _Coverage
-    own: dict
-
-    def of(self, c: str, ident, valid, columns: Mapping) -> tuple:
-        """Coefficient ``c``'s identification frame, validation frame, identification
-        columns and coverage: the shared ones, or, when it has a maneuver of its own,
-        the shared ones with that maneuver moved from identification to the end of
-        validation (coverage recomputed against the identification left)."""
-        if c not in self.own:
-            return ident, valid, columns, self.coverage
-        ident_c, valid_c, mine = _moved(ident, valid, self.own[c])
-        cov = self.coverage
-        cells_i = cov.ident_cells[~mine]
-        cells_v = np.concatenate([cov.valid_cells, cov.ident_cells[mine]])
-        covered = cov.envelope.covered(cells_v, cov.envelope.counts(cells_i))
-        valid_c["inside_envelope"] = covered
-        return (ident_c, valid_c, {k: v[~mine] for k, v in columns.items()},
-                _Coverage(cells_i, covered, cells_v, cov.envelope))
-
-
-def _moved(ident, valid, maneuver) -> tuple:
-    """``maneuver`` moved from the identification frame to the end of the validation
-    frame: (identification without it, validation with it, mask of its rows in
-    ``ident``)."""
-    import pandas as pd  # optional dependency (the 'aero' extra)
-
-    mine = ident["maneuver"].to_numpy() == maneuver
-    return ident.loc[~mine], pd.concat([valid, ident.loc[mine]]), mine
+    left_out: dict = field(default_factory=dict)
 
 
 def _split(data, settings: IdentificationSettings, log):
@@ -856,7 +814,7 @@ def _split(data, settings: IdentificationSettings, log):
                              ranges=data[held].to_numpy(dtype=float) if held else None,
                              motion=data[motion].to_numpy(dtype=float) if motion else None)
     is_val = split.validation
-    own = {c: m for c, m in zip(excited, split.added) if m is not None}
+    left = {c: m for c, m in zip(excited, split.left_out) if m is not None}
     ident, valid = data.loc[~is_val].copy(), data.loc[is_val].copy()
     # The metadata live in ``meta``; pandas deep-copies ``attrs`` on every column access
     # (0.26 s each with a campaign's reconstruction record), so the splits carry none.
@@ -864,24 +822,14 @@ def _split(data, settings: IdentificationSettings, log):
     if len(valid) == 0 or len(ident) == 0:
         raise InputError("the identification or validation set is empty; give more maneuvers"
                          " or change validation_fraction")
-    coverage = _Coverage(cells[~is_val], envelope.covered(cells[is_val],
-                                                          envelope.counts(cells[~is_val])),
-                         cells[is_val], envelope)
+    coverage = _Coverage(envelope.covered(cells[is_val], envelope.counts(cells[~is_val])),
+                         envelope)
     valid["inside_envelope"] = coverage.valid_covered
     log(f"{data['maneuver'].nunique()} maneuvers: {ident['maneuver'].nunique()} for "
         f"identification ({len(ident):,} samples), {valid['maneuver'].nunique()} for "
         f"validation ({len(valid):,} samples, {100 * coverage.valid_covered.mean():.1f} % "
         f"inside the identification data's envelope)")
-    types = data.groupby("maneuver")["maneuver_type"].first() \
-        if "maneuver_type" in data.columns else None
-    notes = []
-    for c, m in own.items():
-        kind = "" if types is None else f" ({types.loc[m]})"
-        notes.append(f"{c}: the shared validation maneuvers do not excite it; maneuver {m}"
-                     f"{kind}, which does, is held out for {c} alone (its model is "
-                     "identified without it and validated on it too)")
-        log(f"note: {notes[-1]}")
-    return ident, valid, coverage, own, notes
+    return ident, valid, coverage, left
 
 
 def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
@@ -889,12 +837,9 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
                       progress: bool, log):
     """Step 3: select, fit and validate each coefficient's model (one BLAS thread: many
     small factorisations), the coefficients in parallel processes when ``workers``
-    allow (each search is independent; results are identical to a serial run). A
-    coefficient with a validation maneuver of its own (``splits.own``) is identified without
-    it and validated on it too; its model's output there goes to ``ident``."""
+    allow (each search is independent; results are identical to a serial run)."""
     results, notes = {}, []
     coefs = tuple(settings.coefficients)
-    frames = {c: splits.of(c, ident, valid, columns) for c in coefs}
     has_truth = all(f"true_{c}" in valid.columns for c in coefs)
     workers = min(len(coefs), settings.workers or os.cpu_count() or 1)
     bar = _bar(len(coefs), progress)
@@ -926,31 +871,25 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         gate = ctx.Semaphore(workers) if procs > workers else None
         with ProcessPoolExecutor(max_workers=procs, mp_context=ctx,
                                  initializer=init_worker, initargs=(gate,)) as pool:
-            futures = {pool.submit(_identify_in_worker, c, structures[c],
-                                   slim(frames[c][0]), slim(frames[c][1]), *frames[c][2:],
-                                   settings, has_truth, source): c
+            ident_w, valid_w = slim(ident), slim(valid)
+            futures = {pool.submit(_identify_in_worker, c, structures[c], ident_w, valid_w,
+                                   columns, splits.coverage, settings, has_truth, source,
+                                   splits.left_out.get(c)): c
                        for c in order}
             for fut in as_completed(futures):
                 done(futures[fut], fut.result())
     else:
         with kernels.one_blas_thread():
             for c in coefs:
-                done(c, _identify_one(c, structures[c], *frames[c], settings, has_truth,
-                                      source))
+                done(c, _identify_one(c, structures[c], ident, valid, columns,
+                                      splits.coverage, settings, has_truth, source,
+                                      splits.left_out.get(c)))
     for c in coefs:          # in coefficient order, however the workers finished
         res, pred_v, new_notes, to_warn = outcomes[c]
         results[c] = res
-        valid_c = frames[c][1]
-        inside = _covered(res.model, valid_c, valid_c["inside_envelope"].to_numpy())
-        n = len(valid)
-        valid[f"model_{c}"] = pred_v[:n]
-        valid[f"inside_{c}"] = inside[:n]
-        if c in splits.own:
-            mine = ident["maneuver"].to_numpy() == splits.own[c]
-            ident[f"model_{c}"] = np.nan
-            ident.loc[mine, f"model_{c}"] = pred_v[n:]
-            ident[f"inside_{c}"] = False
-            ident.loc[mine, f"inside_{c}"] = inside[n:]
+        valid[f"model_{c}"] = pred_v
+        valid[f"inside_{c}"] = _covered(res.model, valid,
+                                        valid["inside_envelope"].to_numpy())
         notes.extend(new_notes)
         for msg in to_warn:
             warnings.warn(msg, ThinDataWarning, stacklevel=3)
@@ -967,8 +906,7 @@ def _extrapolation_note(c: str, v_scores: Mapping, maneuvers: np.ndarray,
                         covered: np.ndarray) -> str:
     """The warning for a validation that lies (mostly) outside the identification data."""
     share = v_scores["coverage"]
-    outside = [int(m) if np.issubdtype(type(m), np.integer) else str(m)
-               for m in np.unique(maneuvers[~covered])]
+    outside = [_plain_id(m) for m in np.unique(maneuvers[~covered])]
     scored = ("scored on all of them (nothing else to score)" if share == 0 else
               "scored on the covered part; the rest under 'outside' in summary.json")
     return (f"{c}: only {100 * share:.1f} % of the validation samples lie inside the "
@@ -983,7 +921,7 @@ def _record_provenance(results: Mapping, out: Identification, meta: dict,
     """Step 4: what each model file keeps of the run (settings, medians, geometry,
     validation scores)."""
     for c, res in results.items():
-        ident = out.identification_of(c)
+        ident = out.identification
         res.model.provenance.update({"software": prov["software"],
                                      "settings": settings.to_dict(),
                                      "medians": {v: float(np.median(ident[v].to_numpy(
@@ -1012,9 +950,10 @@ SLOT_PROCESSES = 3
 
 def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                   coverage: _Coverage, settings: IdentificationSettings, has_truth: bool,
-                  source) -> tuple:
+                  source, left_out=None) -> tuple:
     """Select (optionally), fit and validate the model of coefficient ``c`` (in this
-    process or a worker).
+    process or a worker); ``left_out``: the identification maneuver validated by leaving
+    it out (:attr:`Identification.left_out_validation`), or None.
 
     Returns
     -------
@@ -1065,7 +1004,7 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     with compute_slot():
         return _fit_and_validate(c, best, history, prior_degree, prior_scores, ident, valid,
                                  columns, coverage, settings, has_truth, source, notes, warn,
-                                 t0, busy0)
+                                 t0, busy0, left_out)
 
 
 #: A maneuver counts as scored by the structure search's cross-validation when at least
@@ -1134,9 +1073,11 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
                       prior_scores: dict, ident, valid, columns: Mapping,
                       coverage: _Coverage, settings: IdentificationSettings,
                       has_truth: bool, source, notes: list, warn: list, t0: float,
-                      busy0: float | None) -> tuple:
+                      busy0: float | None, left_out_maneuver=None) -> tuple:
     """The rest of :func:`_identify_one` after the search: the final fit on all
-    identification data, validation and the notes."""
+    identification data, validation and the notes. With ``left_out_maneuver`` the
+    validation also scores that identification maneuver, predicted by a model of the
+    same structure identified without it (:func:`_left_out_prediction`)."""
     y = ident[c].to_numpy(dtype=float)
     mans = ident["maneuver"].to_numpy()
     model = fit_structure(best, columns, y, settings.selection, prior_degree=prior_degree,
@@ -1149,15 +1090,53 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     truth_v = valid[f"true_{c}"].to_numpy() if has_truth else None
     truth_i = ident[f"true_{c}"].to_numpy() if has_truth else None
     covered = _covered(model, valid, coverage.valid_covered)
-    v_scores = scores_by_coverage(valid[c].to_numpy(dtype=float), pred_v, covered,
-                                  truth=truth_v, maneuvers=valid["maneuver"].to_numpy())
+    measured, predicted = valid[c].to_numpy(dtype=float), pred_v
+    v_mans = valid["maneuver"].to_numpy()
+    types = valid["maneuver_type"].to_numpy() if "maneuver_type" in valid.columns else None
+    v_scores = scores_by_coverage(measured, predicted, covered, truth=truth_v,
+                                  maneuvers=v_mans)
+    inside = covered if covered.any() else slice(None)
+    excited = excitation(c, measured[inside], (measured - predicted)[inside],
+                         v_mans[inside], v_scores["r2"],
+                         None if types is None else types[inside])
+    # barely excited where it is validated: the maneuver that excites it, left out
+    left = None if left_out_maneuver is None or excited["excited"] else \
+        _left_out_prediction(best, columns, y, mans, left_out_maneuver, ident, settings,
+                             prior_degree)
+    if left is not None:
+        mine, pred_lo = left
+        shared = {k: v_scores[k] for k in ("rms", "rrms", "r2", "n", "coverage", "rms_true",
+                                           "noise_rms", "rms_true_over_noise")
+                  if k in v_scores}
+        lo_scores = scores(y[mine], pred_lo, truth=None if truth_i is None
+                           else truth_i[mine], max_lag=0)
+        lo_scores.pop("autocorrelation", None)
+        # the left-out maneuver is scored whole: nothing else excites the coefficient, so
+        # the model identified without it meets it beyond the rest of the data
+        measured, predicted = np.r_[measured, y[mine]], np.r_[predicted, pred_lo]
+        covered = np.r_[covered, np.ones(int(mine.sum()), dtype=bool)]
+        v_mans = np.r_[v_mans, mans[mine]]
+        truth_v = None if truth_v is None else np.r_[truth_v, truth_i[mine]]
+        if types is not None:
+            types = np.r_[types, ident["maneuver_type"].to_numpy()[mine]]
+        v_scores = scores_by_coverage(measured, predicted, covered, truth=truth_v,
+                                      maneuvers=v_mans)
+        v_scores["left_out"] = {"maneuver": _plain_id(left_out_maneuver), **lo_scores}
+        v_scores["shared"] = shared
+        kind = "" if types is None else f" ({types[-1]})"
+        notes.append(f"{c}: the validation maneuvers barely excite it (R^2 "
+                     f"{shared['r2']:.2f}) and none that does could be spared; maneuver "
+                     f"{left_out_maneuver}{kind}, which excites it most, is validated by "
+                     f"leaving it out: a model of the same structure identified without it "
+                     f"predicts it (R^2 {lo_scores['r2']:.2f}; with the validation maneuvers "
+                     f"{v_scores['r2']:.2f}), and the model delivered is identified with it "
+                     f"('left_out' and 'shared' in summary.json)")
+        inside = covered if covered.any() else slice(None)
+        excited = excitation(c, measured[inside], (measured - predicted)[inside],
+                             v_mans[inside], v_scores["r2"],
+                             None if types is None else types[inside])
     pred_i = model.predict(ident)
     i_scores = scores(y, pred_i, truth=truth_i, maneuvers=mans, max_lag=0)
-    types = valid["maneuver_type"].to_numpy() if "maneuver_type" in valid.columns else None
-    inside = covered if covered.any() else slice(None)
-    excited = excitation(c, valid[c].to_numpy(dtype=float)[inside], (valid[c].to_numpy(
-        dtype=float) - pred_v)[inside], valid["maneuver"].to_numpy()[inside],
-        v_scores["r2"], None if types is None else types[inside])
     if excited["message"]:
         notes.append(excited["message"])
     if v_scores["coverage"] < MIN_VALIDATION_COVERAGE:
@@ -1213,6 +1192,33 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     result = CoefficientResult(model, v_scores, i_scores, history, counts, thin, seconds,
                                diagnostics)
     return result, pred_v, notes, warn
+
+
+def _plain_id(m):
+    """A maneuver id as a plain int or str (for JSON)."""
+    return int(m) if np.issubdtype(type(m), np.integer) else str(m)
+
+
+def _left_out_prediction(best: Structure, columns: Mapping, y: np.ndarray,
+                         mans: np.ndarray, maneuver, ident, settings: IdentificationSettings,
+                         prior_degree: int) -> tuple | None:
+    """The left-out validation of one maneuver (:attr:`Identification.left_out_validation`):
+    its rows in ``ident`` (mask) and the prediction there of a model of structure ``best``
+    identified on the other identification maneuvers (extrapolating where the maneuver
+    goes beyond them); None when that model cannot be fitted (the rest too thin). On a
+    flight-test course with one elevator input per test point (global5000, six test
+    points, no maneuver list), Cm was validated on stationary segments, aileron inputs
+    and turns (R^2 -0.50: the noise against a bias); left out, the elevator input that
+    excites it is predicted to R^2 0.92."""
+    mine = mans == maneuver
+    if not mine.any() or mine.all():
+        return None
+    try:
+        model = fit_structure(best, {k: v[~mine] for k, v in columns.items()}, y[~mine],
+                              settings.selection, prior_degree=prior_degree)
+    except SimplexSplineError:
+        return None
+    return mine, model.predict(ident.loc[mine], outside="extrapolate")
 
 
 def _held_note(c: str, held: Mapping, variables) -> str:

@@ -358,7 +358,12 @@ def _coefficient_section(c: str, res, identification, ident, valid, slot: Slot) 
                f"{_fmt(v.get('bias'), '.2e')}, max |error| {_fmt(v.get('max_abs'), '.2e')}"
                + (f"; against the truth: RMS {_fmt(v.get('rms_true'), '.3e')} (measurement"
                   f" noise RMS {_fmt(v.get('noise_rms'), '.3e')})" if "rms_true" in v
-                  else "") + ".")
+                  else "") + "."
+               + (f" These scores include maneuver {v['left_out']['maneuver']}, validated "
+                  f"by leaving it out (a model of the same structure identified without it:"
+                  f" R² {_fmt(v['left_out'].get('r2'), '.4f')} there); the validation "
+                  f"maneuvers alone: R² {_fmt(v['shared'].get('r2'), '.4f')}."
+                  if "left_out" in v else ""))
     shead, srows = _structure_rows(res, ident)
     mine = [w for w in identification.warnings if w.startswith(f"{c}:")]
     if len(res.thin) and not mine:
@@ -438,11 +443,7 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
     blocks += _table_section(identification)
     blocks += _data_section(ident, valid, types, slot)
     for c, res in identification.results.items():
-        own = c in identification.own_validation       # a validation maneuver of its own
-        blocks += _coefficient_section(
-            c, res, identification,
-            _plain(identification.identification_of(c)) if own else ident,
-            _plain(identification.validation_of(c)) if own else valid, slot)
+        blocks += _coefficient_section(c, res, identification, ident, valid, slot)
     blocks += _derivative_section({c: res.model for c, res in identification.results.items()},
                                   ident, slot)
 
