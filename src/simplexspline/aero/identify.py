@@ -1095,10 +1095,8 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     types = valid["maneuver_type"].to_numpy() if "maneuver_type" in valid.columns else None
     v_scores = scores_by_coverage(measured, predicted, covered, truth=truth_v,
                                   maneuvers=v_mans)
-    inside = covered if covered.any() else slice(None)
-    excited = excitation(c, measured[inside], (measured - predicted)[inside],
-                         v_mans[inside], v_scores["r2"],
-                         None if types is None else types[inside])
+    excited = _excitation_where_covered(c, measured, predicted, covered, v_mans,
+                                        v_scores["r2"], types)
     # barely excited where it is validated: the maneuver that excites it, left out
     left = None if left_out_maneuver is None or excited["excited"] else \
         _left_out_prediction(best, columns, y, mans, left_out_maneuver, ident, settings,
@@ -1131,10 +1129,8 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
                      f"predicts it (R^2 {lo_scores['r2']:.2f}; with the validation maneuvers "
                      f"{v_scores['r2']:.2f}), and the model delivered is identified with it "
                      f"('left_out' and 'shared' in summary.json)")
-        inside = covered if covered.any() else slice(None)
-        excited = excitation(c, measured[inside], (measured - predicted)[inside],
-                             v_mans[inside], v_scores["r2"],
-                             None if types is None else types[inside])
+        excited = _excitation_where_covered(c, measured, predicted, covered, v_mans,
+                                            v_scores["r2"], types)
     pred_i = model.predict(ident)
     i_scores = scores(y, pred_i, truth=truth_i, maneuvers=mans, max_lag=0)
     if excited["message"]:
@@ -1192,6 +1188,15 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     result = CoefficientResult(model, v_scores, i_scores, history, counts, thin, seconds,
                                diagnostics)
     return result, pred_v, notes, warn
+
+
+def _excitation_where_covered(c: str, measured, predicted, covered, maneuvers, r2: float,
+                              types) -> dict:
+    """:func:`~simplexspline.aero.selection.diagnostics.excitation` of the validation
+    samples that count (all of them when none is covered)."""
+    inside = covered if covered.any() else slice(None)
+    return excitation(c, measured[inside], (measured - predicted)[inside],
+                      maneuvers[inside], r2, None if types is None else types[inside])
 
 
 def _plain_id(m):
