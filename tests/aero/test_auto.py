@@ -12,6 +12,7 @@ from hypothesis import given, settings as hsettings, strategies as st
 from simplexspline.aero.modelling.auto import (
     AUTO_PRESET,
     EVEN_LATERAL,
+    breaks_symmetry,
     candidate_terms,
     linear_start,
     restrict_to_data,
@@ -27,8 +28,8 @@ from simplexspline.aero.selection.moves import (
     neighbours,
     schedule_moves,
 )
-from simplexspline.aero.selection.search import SelectionSettings, cv_score, \
-    fit_structure, in_training_box, select_structure
+from simplexspline.aero.selection.search import SelectionSettings, Trial, _search, \
+    cv_score, fit_structure, in_training_box, select_structure
 from simplexspline.aero.variables import (
     CANDIDATE_VARIABLES,
     COEFFICIENTS,
@@ -138,6 +139,50 @@ def test_a_propellers_torque_in_the_roll_moment_is_found_on_the_thrust_coefficie
     assert "tc_ff" in best.multipliers
     fit = fit_structure(best, cols, y)
     assert np.sqrt(np.mean((fit.predict(cols) - truth) ** 2)) < 3e-5
+
+
+@pytest.mark.parametrize("coef, term, breaks", [
+    ("Cl", "tc_ff", True), ("Cn", "tc", True), ("CY", "tc_n1*|alpha-0.1|", True),
+    ("Cl", "tc*|beta|", False), ("Cl", "beta", False), ("Cl", "1", False),
+    ("Cm", "tc", False), ("CX", "beta*beta", False)])
+def test_breaks_symmetry_marks_the_lateral_terms_without_a_lateral_factor(coef, term, breaks):
+    assert breaks_symmetry(coef, term) is breaks
+
+
+class _TableScore:
+    """A fake cross-validation: the score of a structure from its added terms (each term's
+    factor multiplies the score), recording the trials as the search's scorer does."""
+
+    screen = None
+    place = None
+
+    def __init__(self, factors):
+        self.factors, self.history = factors, []
+
+    def __call__(self, s, rnd, move):
+        value = float(np.prod([self.factors.get(m, 1.0) for m in s.multipliers]))
+        self.history.append(Trial(s, value, rnd, move))
+        return value
+
+
+@pytest.mark.parametrize("gain, taken", [(0.95, False), (0.8, True)])
+def test_a_symmetry_breaking_term_must_earn_more_than_the_others(gain, taken):
+    """The thrust coefficient in Cl is taken only when it improves the score by more than
+    asymmetry_improvement (10 %); a lateral term improving by 3 % is taken at the usual
+    1 %, even when the thrust scores better in the same round."""
+    start = Structure("Cl", ("alpha",), 0, -1, (1,), ("1", "beta", "da"))
+    score = _TableScore({"tc_ff": gain, "phat": 0.97})
+    settings = SelectionSettings(moves=("variables",), max_rounds=3)
+    best, value = _search(start, settings, ["alpha", "beta", "da", "phat", "tc_ff"],
+                          10_000, score)
+    assert "phat" in best.multipliers
+    assert ("tc_ff" in best.multipliers) is taken
+    assert value == pytest.approx(0.97 * (gain if taken else 1.0))
+    # with the threshold lowered to the usual one the thrust is taken at 5 % too
+    lax = replace(settings, asymmetry_improvement=0.0)
+    best, _ = _search(start, lax, ["alpha", "beta", "da", "phat", "tc_ff"], 10_000,
+                      _TableScore({"tc_ff": gain, "phat": 0.97}))
+    assert "tc_ff" in best.multipliers
 
 
 def test_linear_start_keeps_the_terms_and_drops_the_schedule():

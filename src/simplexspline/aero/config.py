@@ -19,6 +19,7 @@ A config file (all tables and keys optional)::
     max_rounds = 6
     folds = 3
     min_improvement = 0.01
+    asymmetry_improvement = 0.1  # a term that breaks the mirror symmetry (thrust in Cl)
     max_degree = 5
     max_resolution = 6
     max_variables = 5

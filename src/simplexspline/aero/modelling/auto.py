@@ -31,8 +31,8 @@ from simplexspline.aero.variables import (
 )
 from simplexspline.errors import InputError
 
-__all__ = ["AUTO_PRESET", "EVEN_LATERAL", "SCHEDULING_CANDIDATES", "candidate_terms",
-           "linear_start", "restrict_to_data"]
+__all__ = ["AUTO_PRESET", "EVEN_LATERAL", "SCHEDULING_CANDIDATES", "breaks_symmetry",
+           "candidate_terms", "linear_start", "restrict_to_data"]
 
 #: Lateral variables whose even terms (``v*v`` and ``|v|``) a longitudinal coefficient may
 #: get: the sideslip and the lateral controls (drag grows with the size of each).
@@ -139,6 +139,34 @@ def candidate_terms(coefficient: str, available: Sequence[str],
             if v in have:
                 out += [f"{v}*{v}", f"|{v}|"]
     return tuple(out)
+
+
+def breaks_symmetry(coefficient: str, multiplier: str) -> bool:
+    """Whether the term ``multiplier`` of a model of ``coefficient`` breaks the mirror
+    symmetry of the airframe: a term of a lateral coefficient (CY, Cl, Cn) without a
+    lateral factor, other than its constant (a thrust coefficient, or a kink of one).
+
+    Such a term is physics of some aircraft only (a propeller's torque and swirl), so the
+    structure search asks more of it than of the others
+    (:attr:`~simplexspline.aero.selection.search.SelectionSettings.asymmetry_improvement`).
+
+    Parameters
+    ----------
+    coefficient : str
+        ``'CX'``, ..., ``'Cn'``.
+    multiplier : str
+        A multiplier in the notation of :mod:`simplexspline.aero.modelling.notation`.
+
+    Examples
+    --------
+    >>> breaks_symmetry("Cl", "tc_ff"), breaks_symmetry("Cl", "tc*|beta|")
+    (True, False)
+    >>> breaks_symmetry("Cl", "1"), breaks_symmetry("Cm", "tc")
+    (False, False)
+    """
+    if coefficient not in LATERAL_COEFFICIENTS or multiplier == "1":
+        return False
+    return not any(f in LATERAL_VARIABLES for f in multiplier_factors(multiplier))
 
 
 def restrict_to_data(structure: Structure, columns: Mapping) -> tuple[Structure, list]:
