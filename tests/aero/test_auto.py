@@ -185,6 +185,24 @@ def test_a_symmetry_breaking_term_must_earn_more_than_the_others(gain, taken):
     assert "tc_ff" in best.multipliers
 
 
+def test_the_search_goes_on_while_it_improves_up_to_its_round_cap():
+    """One move per round (combine = 0) and eight terms that each improve the score by
+    10 %: the default cap (12 rounds) takes all eight, where six rounds stopped a search
+    that still improved; a lower cap stops it there."""
+    start = Structure("Cm", ("alpha",), 0, -1, (1,), ("1",))
+    available = ["alpha", "qhat", "de", "mach", "alphadot_hat", "flap", "beta", "da"]
+    good = ("qhat", "de", "mach", "alphadot_hat", "flap", "beta*beta", "|beta|", "da*da")
+    settings = SelectionSettings(moves=("variables",), combine=0)
+    assert settings.max_rounds >= len(good)
+    best, value = _search(start, settings, available, 10_000,
+                          _TableScore({t: 0.9 for t in good}))
+    assert set(good) <= set(best.multipliers)
+    assert value == pytest.approx(0.9 ** len(good))
+    best, _ = _search(start, replace(settings, max_rounds=6), available, 10_000,
+                      _TableScore({t: 0.9 for t in good}))
+    assert len(set(good) & set(best.multipliers)) == 6
+
+
 def test_linear_start_keeps_the_terms_and_drops_the_schedule():
     """Constant multipliers over one cell; the scheduling variables of the coefficient's
     own parity join the terms (a lateral coefficient does not get alpha)."""

@@ -16,7 +16,7 @@ A config file (all tables and keys optional)::
     candidates = ["alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr",
                   "alphadot_hat", "betadot_hat", "flap", "gear", "speedbrake", "dte", "mass",
                   "tc", "tc_ff", "tc_n1"]
-    max_rounds = 6
+    max_rounds = 12
     folds = 3
     min_improvement = 0.01
     asymmetry_improvement = 0.1  # a term that breaks the mirror symmetry (thrust in Cl)

@@ -63,7 +63,7 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument("--no-select", action="store_true",
                    help="fit the given/preset structures as they are (no selection)")
     p.add_argument("--rounds", type=arguments.non_negative, default=None,
-                   help="rounds of the structure selection (6)")
+                   help="rounds of the structure selection (at most 12)")
     p.add_argument("--validation-fraction", type=arguments.fraction, default=None,
                    help="fraction of maneuvers held out for validation (0.25)")
     p.add_argument("--seed", type=arguments.seed, default=None, help="seed of split and folds (0)")

@@ -82,7 +82,10 @@ class SelectionSettings:
     candidates : tuple of str
         Variables that may be added (only those present in the data are used).
     max_rounds : int
-        Greedy rounds (each takes the best of all moves).
+        Greedy rounds (each takes the best of all moves). A cap, not a budget: the search
+        stops sooner when no move improves. Six rounds stopped the F-16's CX on a campaign
+        of 40 maneuvers while it still improved (7.16e-4 CV RMS in round 6; 1.70 -> 1.10
+        times the noise against the truth with 12); the size budget bounds the structures.
     folds : int
         k of the k-fold cross-validation by maneuver.
     min_improvement : float
@@ -216,7 +219,7 @@ class SelectionSettings:
     """
 
     candidates: tuple = CANDIDATE_VARIABLES
-    max_rounds: int = 6
+    max_rounds: int = 12
     folds: int = 3
     min_improvement: float = 0.01
     asymmetry_improvement: float = 0.1
