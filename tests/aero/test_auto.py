@@ -185,6 +185,14 @@ def test_a_symmetry_breaking_term_must_earn_more_than_the_others(gain, taken):
     assert "tc_ff" in best.multipliers
 
 
+@pytest.mark.parametrize("name, value", [("min_improvement", -0.01),
+                                         ("asymmetry_improvement", 1.0),
+                                         ("asymmetry_improvement", float("nan"))])
+def test_improvement_thresholds_outside_0_1_are_named(name, value):
+    with pytest.raises(InputError, match=f"{name} is a relative decrease"):
+        SelectionSettings(**{name: value})
+
+
 def test_the_search_goes_on_while_it_improves_up_to_its_round_cap():
     """One move per round (combine = 0) and eight terms that each improve the score by
     10 %: the default cap (12 rounds) takes all eight, where six rounds stopped a search

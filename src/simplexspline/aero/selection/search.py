@@ -260,6 +260,11 @@ class SelectionSettings:
         if self.cv_average not in CV_AVERAGES:
             raise InputError(f"cv_average must be one of {list(CV_AVERAGES)}, got "
                              f"{self.cv_average!r}")
+        for name in ("min_improvement", "asymmetry_improvement"):
+            value = getattr(self, name)
+            if not 0.0 <= value < 1.0:
+                raise InputError(f"{name} is a relative decrease of the CV RMS, from 0 "
+                                 f"up to (not including) 1; got {value!r}")
 
     def to_dict(self) -> dict:
         return {k: (list(v) if isinstance(v, tuple) else v)
