@@ -4,10 +4,12 @@ A profile is plain data (numbers, strings, tuples): it travels to worker process
 dictionary (:meth:`AircraftProfile.to_dict`) and is rebuilt there, so nothing is pickled
 but builtins. The bundled profiles are ``f16`` (a fly-by-wire fighter with strongly
 nonlinear tables), ``global5000`` (a twin-jet business aircraft), ``c172p`` (a light
-single-piston aircraft, slow, with propeller slipstream) and ``A4`` (a subsonic light attack
-jet); :func:`get_aircraft` returns one, :func:`register_aircraft` adds your own.
+single-piston aircraft, slow, with propeller slipstream), ``A4`` (a subsonic light attack
+jet) and ``737`` (a twin-jet transport, added after the identification's defaults were
+settled, to judge them on an aircraft they were not developed on); :func:`get_aircraft`
+returns one, :func:`register_aircraft` adds your own.
 
-Sign conventions (JSBSim's, measured on all four bundled models):
+Sign conventions (JSBSim's, measured on all five bundled models):
 
 * ``de`` > 0: elevator trailing edge down, nose-down pitching moment (dCm/dde < 0);
 * ``da`` > 0: positive (right-wing-down) rolling moment (dCl/dda > 0);
@@ -348,8 +350,41 @@ _A4 = AircraftProfile(
     notes="flaps up (flap column zero); speed brake retracted",
 )
 
+_B737 = AircraftProfile(
+    name="737",
+    model="737",
+    # a twin-jet transport with conventional controls; the aerodynamics read the left
+    # aileron only. Flaps, spoilers and speed brake stay retracted.
+    elevator=Surface(0.35, 40 * DEG, 0.08, (("fcs/elevator-pos-rad", 1.0),)),
+    aileron=Surface(0.35, 40 * DEG, 0.08, (("fcs/left-aileron-pos-rad", 1.0),)),
+    rudder=Surface(0.35, 40 * DEG, 0.08, (("fcs/rudder-pos-rad", 1.0),)),
+    throttles=("fcs/throttle-pos-norm", "fcs/throttle-pos-norm[1]"),
+    tanks=("propulsion/tank/contents-lbs", "propulsion/tank[1]/contents-lbs",
+           "propulsion/tank[2]/contents-lbs"),
+    # the model's tables at Mach 0.6 (JSBSim 1.3.3): Cmde, Clda, Cndr
+    control_power=(-0.93, 0.080, -0.200),
+    # every point trims at full fuel; 6000 m and above at 130 m/s, or 9000 m at 155 m/s,
+    # do not (the lift needed is beyond the lift table's maximum, 1.2)
+    altitudes_m=(1500.0, 3000.0, 4500.0, 6000.0, 7500.0, 9000.0),
+    airspeeds_mps=(165.0, 185.0, 205.0, 225.0, 245.0),
+    envelope=Envelope(alpha_min=-5 * DEG, alpha_max=12 * DEG, beta_max=8 * DEG,
+                      phi_max=45 * DEG, theta_max=30 * DEG, nz_min=-0.5, nz_max=2.5,
+                      mach_max=0.85, h_min=300.0),
+    pulse_unit_s=(0.5, 1.2),
+    pulse_accel=((0.15, 0.45), (0.3, 0.9), (0.08, 0.25)),
+    pulse_qbar_ref=20000.0,
+    sos_accel_rms=(0.15, 0.4, 0.08),
+    sos_band_hz=(0.05, 1.5),
+    sos_bank=30 * DEG,
+    pilot_bandwidth=(1.5, 1.5),
+    sas_damping=(2.0, 2.0, 1.0),
+    flap_property="fcs/flap-pos-deg",
+    flap_scale=math.pi / 180.0,
+    notes="flaps, spoilers and speed brake retracted; yaw damper off (the FCS is off)",
+)
+
 _REGISTRY: dict[str, AircraftProfile] = {"f16": _F16, "global5000": _GLOBAL5000,
-                                         "c172p": _C172P, "A4": _A4}
+                                         "c172p": _C172P, "A4": _A4, "737": _B737}
 
 
 def available_aircraft() -> list[str]:
