@@ -14,6 +14,7 @@ from hypothesis import given, settings as hsettings, strategies as st
 from simplexspline.aero import import_record
 from simplexspline.aero.reconstruction.campaign_calibration import (
     FALSE_ALARM,
+    LONE_SHARE,
     OBSERVED,
     WIND_FLOOR,
     campaign_priors,
@@ -248,6 +249,29 @@ def test_a_lone_turbulent_estimate_of_an_airspeed_bias_is_named_not_used():
     assert lone_in_gusts(combined, {6}, ("btas", "bbeta")) == {}          # still air
     assert "balpha" not in lone_in_gusts(combined, {6, 14}, ("btas", "balpha"))
     assert lone_in_gusts({"btas": None}, {14}, ("btas",)) == {}
+
+
+def test_a_turbulent_estimate_that_the_others_cannot_check_is_lone_too():
+    """The 737 course's case: a long turn in gusts gave the airspeed bias as 0.67 +- 0.15
+    m/s (truth 0), another turn 0.17 +- 0.92. Both are combined (each observes it), but the
+    first holds 98 % of the information: the second could not see it off, so the
+    combination rests on it alone, and the rule names the turn with its own estimate. With
+    the second as tight as the first they check each other; in still air nothing is
+    named; without the estimates only a single-estimate combination counts."""
+    est = {"btas": [(0.669, 0.148, 2.0, 11), (0.169, 0.923, 2.0, 1)]}
+    combined, _ = combine_campaign(est)
+    assert combined["btas"].used == (11, 1)
+    assert lone_in_gusts(combined, {11, 1}, ("btas",), est) == {
+        "btas": {11: (0.669, 0.148, None)}}
+    assert lone_in_gusts(combined, {11, 1}, ("btas",)) == {}
+    assert lone_in_gusts(combined, {1}, ("btas",), est) == {}       # the turn in still air
+    assert lone_in_gusts(combined, {11, 1}, ("bbeta",), est) == {}  # not a state of the rule
+    # the information shares: 1/0.148^2 - 1/4 against 1/0.923^2 - 1/4
+    share = (1 / 0.148 ** 2 - 0.25) / (1 / 0.148 ** 2 + 1 / 0.923 ** 2 - 0.5)
+    assert share > LONE_SHARE
+    checked = {"btas": [(0.669, 0.148, 2.0, 11), (0.169, 0.30, 2.0, 1)]}
+    combined, _ = combine_campaign(checked)
+    assert lone_in_gusts(combined, {11, 1}, ("btas",), checked) == {}
 
 
 def test_an_airspeed_bias_the_campaign_cannot_determine_is_held_in_straight_still_air():

@@ -35,6 +35,7 @@ from simplexspline.aero.data.flight_data import (
 from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
 from simplexspline.aero.reconstruction.campaign_calibration import (FALSE_ALARM,
+                                                                     LONE_SHARE,
                                                                      CombinedEstimate,
                                                                      campaign_priors,
                                                                      campaign_wind,
@@ -110,10 +111,15 @@ GUST_HELD_POSITION = ("not estimated in turbulence (gusts in this maneuver): con
 #: second alone became the campaign's, and every airspeed of the flight came out 2.5 m/s off
 #: (raw sensor: 0.6 m/s RMS). Turbulence biases such an estimate beyond its sigma, and with
 #: one estimate nothing shows it; the constant is then held in the maneuvers with gusts, as
-#: when no maneuver observes it.
-LONE_IN_GUSTS = ("the only maneuver that observes it had gusts, whose slow horizontal part "
-                 "trades against it beyond its sigma, with nothing to check it against: held "
-                 "at its prior in the maneuvers with gusts")
+#: when no maneuver observes it. The same holds when the other estimates are too wide to
+#: check it (it holds more than ``LONE_SHARE`` of their information, campaign_calibration
+#: :func:`lone_in_gusts`): on a simulated 737 course a
+#: turn's 0.67 +- 0.15 m/s (truth 0) beside another turn's 0.17 +- 0.92 put every airspeed
+#: 0.66 m/s off.
+LONE_IN_GUSTS = ("the only maneuver that observes it (or that holds more than "
+                 f"{LONE_SHARE:.0%} of what the maneuvers know of it) had gusts, whose slow "
+                 "horizontal part trades against it beyond its sigma, with nothing to check it "
+                 "against: held at its prior in the maneuvers with gusts")
 #: The constants that trade against the horizontal wind (the airspeed bias along the track,
 #: the sideslip-vane offset across it), whose gusts a maneuver's wind states follow only in
 #: part. The angle-of-attack vane offset trades against the vertical wind, whose mean over a
@@ -1681,7 +1687,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
                 for k in group:
                     excluded.setdefault(k, {})[m] = (*mine[m][k][:2], z)
         gusty = {r["maneuver"] for r in results if r["ok"] and r.get("gusts", 0.0) > 0}
-        lone = lone_in_gusts(combined, gusty, LONE_IN_GUSTS_STATES)
+        lone = lone_in_gusts(combined, gusty, LONE_IN_GUSTS_STATES, est)
         for k, c in combined.items():
             if c is None or (c.sigma > 0.5 * est[k][0][2] and k not in together):
                 continue              # the campaign does not observe it: left at its prior
