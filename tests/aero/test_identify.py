@@ -17,6 +17,7 @@ from simplexspline.aero.identify import (
     IdentificationSettings,
     ThinDataWarning,
     _imu_position_note,
+    _vane_scale_note,
     identify,
 )
 from simplexspline.aero.modelling.model import AeroModel
@@ -539,6 +540,37 @@ def test_a_search_that_cannot_score_where_the_coefficient_moves_starts_linear(ta
         coefficients=("Cm",), structures={"Cm": start}, selection=FAST, workers=1))
     assert res.results["Cm"].history[0].structure == start
     assert not any("scored none" in w for w in res.warnings)
+
+
+def test_a_vane_scale_neither_given_nor_estimated_is_said():
+    """Turbulence in every maneuver holds the angle-of-attack vane's scale at 1: the note
+    names it and what it costs (the slopes along alpha); not when the mapping gives the
+    scale, the campaign estimated it, one maneuver estimated it, or no longitudinal
+    coefficient is modelled."""
+    import pandas as pd
+
+    data = pd.DataFrame({"alpha": np.linspace(0.0, 0.1, 5)})
+    turb = ("not estimated in turbulence (gusts in this maneuver): confounded with the "
+            "gusts; held at the given calibration")
+    record = {"maneuvers": {"1": {"held": {"kalpha": turb}}, "2": {"held": {"kalpha": turb}}},
+              "air_data_calibration": {"balpha": [0.01, 0.001]}}
+    note = _vane_scale_note(data, IdentificationSettings(), {}, {"record": record})
+    assert re.match(r"the angle-of-attack vane's scale factor is neither given .*\(held at 1 "
+                    r"in every maneuver: not estimated in turbulence\): alpha, and every "
+                    r"derivative along it \(CL_alpha, Cm_alpha\)", note), note
+    # already reconstructed data: the record in the metadata
+    assert _vane_scale_note(data, IdentificationSettings(), {"reconstruction": record}) == note
+    given = {"sensor_geometry": {"alpha_vane": {"scale": 1.04}}}
+    assert _vane_scale_note(data, IdentificationSettings(), given, {"record": record}) == ""
+    campaign = {**record, "air_data_calibration": {"kalpha": [0.04, 0.005]}}
+    assert _vane_scale_note(data, IdentificationSettings(), {}, {"record": campaign}) == ""
+    one = {**record, "maneuvers": {**record["maneuvers"], "3": {"held": {}}}}
+    assert _vane_scale_note(data, IdentificationSettings(), {}, {"record": one}) == ""
+    lateral = IdentificationSettings(coefficients=("CY", "Cl", "Cn"))
+    assert _vane_scale_note(data, lateral, {}, {"record": record}) == ""
+    assert _vane_scale_note(data.rename(columns={"alpha": "a"}), IdentificationSettings(), {},
+                            {"record": record}) == ""
+    assert _vane_scale_note(data, IdentificationSettings(), {}) == ""     # no record
 
 
 def test_an_imported_record_without_the_imu_position_is_told_what_it_costs_cy():

@@ -467,7 +467,8 @@ def _coefficient_data(df, meta: dict, settings: IdentificationSettings, progress
     rec = reconstruct(df, meta, workers=settings.workers, progress=progress)
     note = {"reconstructed": True, "rejected": {int(k): v for k, v in rec.rejected.items()},
             "thrust_subtracted": rec.thrust_subtracted, "accelerations": rec.accelerations,
-            "moment_reference": rec.moment_reference, "summary": rec.summary()}
+            "moment_reference": rec.moment_reference, "summary": rec.summary(),
+            "record": rec.data.attrs.get("reconstruction")}
     return rec.data, note
 
 
@@ -596,6 +597,12 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
     if imu:
         log(f"note: {imu}")
         dropped.append(imu)
+    scale = _vane_scale_note(data, settings, meta, rec_note)
+    if scale:
+        log(f"note: {scale}")
+        dropped.append(scale)
+    # the reconstruction's own record travels in the data's metadata, not the provenance
+    rec_note = {k: v for k, v in rec_note.items() if k != "record"}
     # the structures' columns that the data have must be clean (a preset's missing ones
     # are left out later); candidates of the search with gaps are only not offered
     def present(v):     # a column that is entirely NaN is a sensor the aircraft lacks
@@ -737,6 +744,39 @@ def _thrust_note(data, settings: IdentificationSettings, rec_note: Mapping,
            if "fuel_flow" in data.columns else "the data hold no fuel flow or fan speed")
     return (f"{holds}) and {why}: they cannot follow the throttle between test points; map "
             "the engines' fuel flow (fuel_flow) or fan speed (n1), or give a thrust model")
+
+
+def _vane_scale_note(data, settings: IdentificationSettings, meta: Mapping,
+                     rec_note: Mapping | None = None) -> str:
+    """An angle-of-attack vane whose scale factor is neither given nor estimated: the
+    reconstruction held it at 1 in every maneuver (turbulence in all of them, no GPS, or
+    not requested), so the angle of attack carries the vane's own scale error, and with
+    it every derivative along alpha. The note, or '' (the scale given or estimated, no
+    vane, no reconstruction record, or no longitudinal coefficient modelled).
+
+    A vane reads the local flow, which the fuselage's upwash turns by several per cent;
+    measured on a simulated global5000 course in light turbulence whose vane read 1.25x
+    the flow angle (`bench_whole_flight.py --design eigenmotion --maneuvers 12 --turns`,
+    scale 1.25 put into `SensorModel.real_like()`): CL_alpha came out at 3.37 for a true
+    4.35, the vane's scale to 3 %."""
+    rec = (rec_note or {}).get("record") or meta.get("reconstruction") or {}
+    maneuvers = rec.get("maneuvers") or {}
+    if not maneuvers or "alpha" not in data.columns \
+            or not {"CX", "CZ", "Cm"} & set(settings.coefficients):
+        return ""
+    vane = (meta.get("sensor_geometry") or {}).get("alpha_vane") or {}
+    if vane.get("scale") is not None or "kalpha" in (rec.get("air_data_calibration") or {}):
+        return ""
+    held = [str((m.get("held") or {}).get("kalpha", "")) for m in maneuvers.values()]
+    if not all(held):
+        return ""                        # some maneuver estimated it
+    why = sorted(set(h.split(":")[0].split(" (")[0] for h in held))
+    return ("the angle-of-attack vane's scale factor is neither given (metadata "
+            "sensor_geometry.alpha_vane.scale) nor estimated (held at 1 in every maneuver: "
+            + "; ".join(why) + "): alpha, and every derivative along it (CL_alpha, "
+            "Cm_alpha), carry the vane's own scale error (a vane's upwash is often several "
+            "per cent); give the scale from the vane's calibration, or fly a stretch of "
+            "calm air with GPS, where the reconstruction estimates it")
 
 
 def _imu_position_note(data, settings: IdentificationSettings, meta: Mapping) -> str:
