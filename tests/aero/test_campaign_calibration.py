@@ -16,6 +16,7 @@ from simplexspline.aero.reconstruction.campaign_calibration import (
     FALSE_ALARM,
     LONE_SHARE,
     OBSERVED,
+    SCALE_FROM_MEANS_MIN,
     WIND_FLOOR,
     campaign_priors,
     campaign_wind,
@@ -27,6 +28,7 @@ from simplexspline.aero.reconstruction.campaign_calibration import (
     outlier_threshold,
     prior_conflicts,
     spread_between,
+    vane_scale_from_means,
 )
 from simplexspline.aero.reconstruction.reconstruct import (
     HELD_STRAIGHT,
@@ -424,3 +426,26 @@ def test_the_joint_combination_does_not_depend_on_the_constants_units():
     np.testing.assert_allclose(mm.cov, metres.cov * np.outer(to_mm, to_mm), rtol=1e-9)
     assert mm.used == metres.used
     assert abs(metres.value[2] - 4.0) < 4 * metres.sigma()[2]
+
+
+def test_a_vane_scale_from_the_maneuvers_means_recovers_the_line_and_leaves_out_a_bad_one():
+    """Means of 12 maneuvers at angles 0-0.1 rad, the vane reading 1.2x plus 0.03 rad, each
+    mean off by a gust of 1e-3 rad: the line is found within its sigma, which the scatter
+    gives (about 1e-3 / (0.032 sqrt(12))); a maneuver 0.02 rad off is left out and named;
+    fewer than SCALE_FROM_MEANS_MIN means, or one angle for all, give None."""
+    rng = np.random.default_rng(3)
+    a = np.linspace(0.0, 0.1, 12)
+    gust = 1e-3 * rng.standard_normal(a.size)
+    means = [(x, 0.03 + 0.2 * x + e, 600, m) for m, (x, e) in enumerate(zip(a, gust))]
+    fit = vane_scale_from_means(means)
+    assert fit.used == tuple(range(12)) and fit.excluded == {}
+    assert abs(fit.scale - 0.2) < 3 * fit.scale_sd and abs(fit.offset - 0.03) < 3 * fit.offset_sd
+    assert 0.005 < fit.scale_sd < 0.03
+    assert fit.spread == pytest.approx(np.std(a))
+    bad = means[:5] + [(means[5][0], means[5][1] + 0.02, 600, 5)] + means[6:]
+    fit_bad = vane_scale_from_means(bad)
+    assert 5 in fit_bad.excluded and fit_bad.excluded[5] > 5
+    assert fit_bad.scale == pytest.approx(fit.scale, abs=2 * fit.scale_sd)
+    assert vane_scale_from_means(means[:SCALE_FROM_MEANS_MIN - 1]) is None
+    assert vane_scale_from_means([(0.05, 0.04, 600, m) for m in range(8)]) is None
+    assert vane_scale_from_means([(float("nan"), 0.0, 600, m) for m in range(8)]) is None

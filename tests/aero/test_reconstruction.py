@@ -18,7 +18,11 @@ from simplexspline.aero.reconstruction.kinematics import (
 )
 from simplexspline.aero.reconstruction.observability import (
     TRIM_AY, TRIM_BANK, TRIM_RATE, heading_excursion, trimmed)
-from simplexspline.aero.reconstruction.reconstruct import initial_state, innovation_statistics
+from simplexspline.aero.reconstruction.reconstruct import (
+    CAMPAIGN_HELD,
+    initial_state,
+    innovation_statistics,
+)
 from simplexspline.errors import FlightDataError, InputError
 from simplexspline.sim.sensors import DEFAULT_BIAS, DEFAULT_NOISE_STD
 
@@ -633,6 +637,55 @@ def test_a_calibration_left_unused_alone_in_gusts_is_said(noisy_reconstruction):
     assert "btas: maneuver 14's estimate -2.51 +- 0.89 not used as the campaign calibration: " \
         "the only maneuver that observes it (or that holds more than 90% of what the " \
         "maneuvers know of it) had gusts" in rec.summary()
+
+
+@pytest.fixture(scope="module")
+def turbulent_course(tmp_path_factory):
+    """A 10 Hz flight-test course of a global5000 in light turbulence: six stationary
+    measurements at 120-250 m/s with their eigenmotions, the angle-of-attack vane reading
+    1.25x the flow angle, no installation given, imported from its channel record."""
+    from simplexspline.aero import import_record
+    from simplexspline.sim import FlightProtocol, SensorModel, Wind, write_channel_record
+    from simplexspline.sim.whole_flight import WholeFlight
+
+    legs = [(4000.0, float(v)) for v in np.linspace(250.0, 120.0, 6)]
+    flight = WholeFlight("global5000", maneuvers=12, seed=1,
+                         sensors=SensorModel(alpha_vane={"position_m": [0.0, 0.0, 0.0],
+                                                         "scale": 1.25, "offset_rad": 0.0}),
+                         wind=Wind((5.0, 8.0), "light"), legs=legs, stationary_s=(60.0, 90.0),
+                         protocol=FlightProtocol.eigenmotion())
+    record = write_channel_record(flight.run(), tmp_path_factory.mktemp("course") / "r",
+                                  rate_hz=10.0)
+    data = import_record(record / "mapping.toml").data
+    truth = pd.read_csv(record / "truth.csv", usecols=["t_record", "alpha"])
+    alpha = pd.Series(truth["alpha"].to_numpy(), index=np.round(truth["t_record"] * 10))
+    data["true_alpha"] = alpha.loc[np.round(data["t_record"] * 10)].to_numpy()
+    return data
+
+
+def test_the_vane_scale_comes_from_the_maneuvers_means_in_turbulence(turbulent_course):
+    """Every maneuver has gusts, so none estimates the vane's scale; the maneuvers' means
+    give it (0.21 +- 0.015 for a true 0.25 on this course: the slow gusts of a leg do not
+    average out) and the last pass holds it: the angle of attack is closer to the truth
+    than with the scale held at 1, and the record says what was done."""
+    rec = reconstruct(turbulent_course)
+    fit = rec.data.attrs["reconstruction"]["vane_scale_from_means"]
+    assert fit["used_as_calibration"] and len(fit["maneuvers"]) >= 10
+    assert 0.15 < fit["kalpha"] < 0.30 and fit["kalpha_sd"] <= 0.025
+    assert rec.calibration["kalpha"] == (fit["kalpha"], fit["kalpha_sd"])
+    assert all(r["held"]["kalpha"] == CAMPAIGN_HELD for r in rec.maneuvers.values())
+    held = reconstruct(turbulent_course, settings=ReconstructionSettings(
+        vane_scale_from_means=False))
+    assert held.data.attrs["reconstruction"]["vane_scale_from_means"] is None
+    assert "kalpha" not in held.calibration
+    # the vane reads 1.25x: with the scale found, the reconstructed angles of attack are
+    # spread about 1.25 / (1 + k) less than with it held at 1
+    ratio = np.std(held.data["alpha"]) / np.std(rec.data["alpha"])
+    assert ratio == pytest.approx(1.0 + fit["kalpha"], rel=0.03)
+
+    def rms(r):
+        return float(np.sqrt(np.mean((r.data["alpha"] - r.data["true_alpha"]) ** 2)))
+    assert rms(rec) < 0.6 * rms(held)
 
 
 @pytest.fixture(scope="module")

@@ -750,8 +750,9 @@ def _vane_scale_note(data, settings: IdentificationSettings, meta: Mapping,
                      rec_note: Mapping | None = None) -> str:
     """An angle-of-attack vane whose scale factor is neither given nor estimated: the
     reconstruction held it at 1 in every maneuver (turbulence in all of them, no GPS, or
-    not requested), so the angle of attack carries the vane's own scale error, and with
-    it every derivative along alpha. The note, or '' (the scale given or estimated, no
+    not requested) and the maneuvers' means could not determine it either (docs/
+    reconstruction.md, "The vane's scale in turbulence"), so the angle of attack carries
+    the vane's own scale error, and with it every derivative along alpha. The note, or '' (the scale given or estimated, no
     vane, no reconstruction record, or no longitudinal coefficient modelled).
 
     A vane reads the local flow, which the fuselage's upwash turns by several per cent;
@@ -775,8 +776,9 @@ def _vane_scale_note(data, settings: IdentificationSettings, meta: Mapping,
             "sensor_geometry.alpha_vane.scale) nor estimated (held at 1 in every maneuver: "
             + "; ".join(why) + "): alpha, and every derivative along it (CL_alpha, "
             "Cm_alpha), carry the vane's own scale error (a vane's upwash is often several "
-            "per cent); give the scale from the vane's calibration, or fly a stretch of "
-            "calm air with GPS, where the reconstruction estimates it")
+            "per cent); give the scale from the vane's calibration, or fly with GPS a "
+            "stretch of calm air or steady stretches of a minute or more at several "
+            "airspeeds, from which the reconstruction estimates it")
 
 
 def _imu_position_note(data, settings: IdentificationSettings, meta: Mapping) -> str:

@@ -42,10 +42,11 @@ from statistics import NormalDist
 
 import numpy as np
 
-__all__ = ["FALSE_ALARM", "LONE_SHARE", "OBSERVED", "WIND_FLOOR", "CombinedEstimate",
-           "JointEstimate", "campaign_priors", "campaign_wind", "combine_campaign",
-           "combine_estimates", "combine_joint", "lone_in_gusts", "outlier_threshold",
-           "prior_conflicts", "spread_between"]
+__all__ = ["FALSE_ALARM", "LONE_SHARE", "OBSERVED", "SCALE_FROM_MEANS_MIN", "WIND_FLOOR",
+           "CombinedEstimate", "JointEstimate", "ScaleFromMeans", "campaign_priors",
+           "campaign_wind", "combine_campaign", "combine_estimates", "combine_joint",
+           "lone_in_gusts", "outlier_threshold", "prior_conflicts", "spread_between",
+           "vane_scale_from_means"]
 
 #: Chance that an honest campaign loses an estimate (a Bonferroni bound over its constants
 #: and their estimates).
@@ -552,3 +553,134 @@ def campaign_wind(estimates: Sequence[tuple]) -> tuple[float, float, float] | No
         comps.append((value, math.hypot(sd, spread_between(est, value))))
     sd = max(WIND_FLOOR, comps[0][1], comps[1][1])
     return comps[0][0], comps[1][0], sd
+
+
+#: Fewest maneuvers whose means determine a vane's scale error across the campaign
+#: (:func:`vane_scale_from_means`): two constants and a scatter to judge them by.
+SCALE_FROM_MEANS_MIN = 5
+
+
+@dataclass(frozen=True)
+class ScaleFromMeans:
+    """A vane's scale error and offset from the maneuvers' mean angles.
+
+    Attributes
+    ----------
+    scale, scale_sd : float
+        The scale error ``k`` (the vane reads ``(1 + k)`` times the local flow angle) [-].
+    offset, offset_sd : float
+        The vane's offset at zero angle [rad].
+    used : tuple of int
+        The maneuvers whose means were fitted.
+    excluded : dict of int to float
+        Maneuver -> distance from the others' fit in sigmas: means left out.
+    spread : float
+        Standard deviation of the maneuvers' mean kinematic angles [rad].
+    """
+
+    scale: float
+    scale_sd: float
+    offset: float
+    offset_sd: float
+    used: tuple = ()
+    excluded: dict = field(default_factory=dict)
+    spread: float = 0.0
+
+
+def _fit_means(a: np.ndarray, r: np.ndarray, w: np.ndarray) -> tuple:
+    """Weighted straight line ``r = b + k a``: (k, b, cov, residuals, sigma^2)."""
+    X = np.column_stack([np.ones_like(a), a])
+    W = w / w.mean()
+    A = X.T @ (W[:, None] * X)
+    cov0 = np.linalg.inv(A)
+    coef = cov0 @ (X.T @ (W * r))
+    res = r - X @ coef
+    s2 = float(np.sum(W * res ** 2) / (a.size - 2))
+    return float(coef[1]), float(coef[0]), cov0 * s2, res, s2
+
+
+def vane_scale_from_means(means, false_alarm: float = FALSE_ALARM) -> ScaleFromMeans | None:
+    """A vane's scale error and offset across the campaign, from each maneuver's mean
+    kinematic flow angle and mean vane residual.
+
+    In turbulence a maneuver's filter cannot estimate the scale error (the part of the
+    gusts' angles its gust model does not follow correlates with the angle itself), but
+    the means over whole maneuvers hardly see the gusts: over a minute the mean vertical
+    gust of light turbulence is a few tenths of a m/s, against test points whose angles of
+    attack differ by degrees. Each maneuver gives ``a``, the mean angle at the vane that
+    its kinematics give with the gusts (and the steady vertical wind) left out, and ``r``,
+    the mean of the vane's reading minus that angle; across maneuvers ``r = b + k a``
+    (weighted by the samples: a mean over a longer stretch holds less gust). The
+    aircraft's response to the gusts makes ``a`` follow them within a maneuver (it rides a
+    slow gust), which the means spread across test points dilute to a bias of ``(gust
+    mean / spread)^2``, a few per mille.
+
+    A maneuver whose mean lies more than :func:`outlier_threshold` sigma from the line of
+    the others is left out (the worst first, while :data:`SCALE_FROM_MEANS_MIN` remain).
+
+    The maneuvers of one test point share its air mass: over the minutes of a leg the
+    slow part of the turbulence does not average out (on a simulated global5000 course
+    the last leg's maneuvers all had a mean vertical wind of +0.3 to +0.7 m/s, 2-5e-3 rad).
+    With ``group`` given, the sigmas are therefore clustered by it (the sandwich over the
+    groups, ``G / (G - 1)``; never below the independent ones), and fewer than three
+    groups give no fit.
+
+    Parameters
+    ----------
+    means : sequence of (a, r, n, maneuver[, group])
+        Per maneuver: mean kinematic angle [rad], mean residual [rad], samples, id, and
+        optionally its test point (any hashable: the maneuvers that share an air mass).
+    false_alarm : float
+        Chance of leaving out a mean of an honest campaign.
+
+    Returns
+    -------
+    ScaleFromMeans or None
+        None with fewer than :data:`SCALE_FROM_MEANS_MIN` finite means or no spread of
+        the angles (the caller judges the sigma).
+    """
+    kept = [tuple(m) for m in means
+            if all(math.isfinite(float(x)) for x in m[:2]) and m[2] > 0]
+    if len(kept) < SCALE_FROM_MEANS_MIN:
+        return None
+    grouped = all(len(m) > 4 for m in kept)
+    if grouped and len({m[4] for m in kept}) < 3:
+        return None
+    excluded = {}
+    while True:
+        a, r, w = (np.array([m[j] for m in kept], dtype=float) for j in range(3))
+        if not np.ptp(a) > 0:
+            return None
+        k, b, cov, res, s2 = _fit_means(a, r, w)
+        if len(kept) <= SCALE_FROM_MEANS_MIN:
+            break
+        worst, z_worst = None, outlier_threshold(len(kept), false_alarm)
+        for i in range(len(kept)):
+            rest = np.arange(len(kept)) != i
+            k_i, b_i, cov_i, _, s2_i = _fit_means(a[rest], r[rest], w[rest])
+            x = np.array([1.0, a[i]])
+            # the mean's own scatter (its weight) plus the others' line's uncertainty
+            var = s2_i * w[rest].mean() / w[i] + float(x @ cov_i @ x)
+            z = abs(r[i] - b_i - k_i * a[i]) / math.sqrt(var) if var > 0 else 0.0
+            if z > z_worst:
+                worst, z_worst = i, z
+        if worst is None:
+            break
+        excluded[kept[worst][3]] = float(z_worst)
+        kept.pop(worst)
+    if grouped:
+        groups = [m[4] for m in kept]
+        if len(set(groups)) < 3:
+            return None
+        X = np.column_stack([np.ones_like(a), a])
+        W = w / w.mean()
+        bread = np.linalg.inv(X.T @ (W[:, None] * X))
+        meat = np.zeros((2, 2))
+        for g in set(groups):
+            i = np.array([x == g for x in groups])
+            sg = X[i].T @ (W[i] * res[i])
+            meat += np.outer(sg, sg)
+        G = len(set(groups))
+        cov = np.maximum(cov, bread @ meat @ bread * G / (G - 1))
+    return ScaleFromMeans(k, float(math.sqrt(cov[1, 1])), b, float(math.sqrt(cov[0, 0])),
+                          tuple(m[3] for m in kept), excluded, float(np.std(a)))

@@ -36,13 +36,16 @@ from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
 from simplexspline.aero.reconstruction.campaign_calibration import (FALSE_ALARM,
                                                                      LONE_SHARE,
+                                                                     OBSERVED,
+                                                                     SCALE_FROM_MEANS_MIN,
                                                                      CombinedEstimate,
                                                                      campaign_priors,
                                                                      campaign_wind,
                                                                      combine_campaign,
                                                                      combine_joint,
                                                                      lone_in_gusts,
-                                                                     prior_conflicts)
+                                                                     prior_conflicts,
+                                                                     vane_scale_from_means)
 from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
@@ -280,6 +283,11 @@ class ReconstructionSettings:
         length over the airspeed); one value fixes it.
     estimate_vane_scale : bool
         Estimate the vanes' scale-factor errors (only with GPS).
+    vane_scale_from_means : bool
+        When turbulence kept every maneuver from estimating the angle-of-attack vane's
+        scale error (and ``air_data_calibration='campaign'``): take it, with the offset,
+        from the maneuvers' mean angles (one more pass, docs/reconstruction.md "The
+        vane's scale in turbulence").
     estimate_vane_position : bool
         Estimate each vane's position error along the body x axis (states ``xalpha``,
         ``xbeta`` [m], prior sigma ``prior['vane_position']``) where the sensor geometry
@@ -393,6 +401,7 @@ class ReconstructionSettings:
     gust_candidates: tuple = (0.3, 1.0, 3.0)
     gust_lengths_m: tuple = (100.0, 300.0, 1000.0)
     estimate_vane_scale: bool = True
+    vane_scale_from_means: bool = True
     estimate_vane_position: bool = True
     beta_pseudo_std: float = 0.05
     sideslip_prior: str = "trim"
@@ -899,8 +908,26 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     lags = _lag_estimates(xs, z, arm, dt, plan) if s["estimate_lags"] else {}
     observability = {k: plan[k] for k in ("beta", "psi", "wind", "forces", "imu_biases",
                                           "imu_conflict") if k in plan}
+    vane_means = None
+    if s.get("vane_means") and gusts.std > 0 \
+            and (present["gps_position"] or present["gps_velocity"]):
+        # the kinematics without the vane: a filter that reads a vane at the wrong scale
+        # leans its attitude, velocity and IMU biases towards it (on a global5000 course
+        # whose vane read 1.25x, by a fifth of the difference)
+        ja = MEASUREMENT_NAMES.index("alpha")
+        vane = z[:, ja].copy()
+        z[:, ja] = np.nan
+        try:
+            blind = forward(gusts.std, gusts.length_m)
+        except FloatingPointError:
+            blind = None
+        z[:, ja] = vane
+        if blind is not None and np.isfinite(blind["x_filt"]).all():
+            vane_means = _vane_means(rts_smooth(blind)[0] if s["smoother"]
+                                     else blind["x_filt"], z, arm)
     return {"maneuver": man, "ok": True, "states": states, "biases": biases,
             "held": held, "weak": weak, "observability": observability, "lags": lags,
+            "vane_means": vane_means,
             "innovations": stats, "skipped": skipped,
             "iterations": (float(out["iterations"].mean()), int(out["iterations"].max())),
             "gusts": {"std": gusts.std,
@@ -909,6 +936,25 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
                       "still_air_excess": gusts.evidence,
                       "loglik": {f"{a:g} m/s, {b:g} m": v
                                  for (a, b), v in gusts.scores.items()}}}
+
+
+def _vane_means(xs: np.ndarray, z: np.ndarray, arm) -> tuple | None:
+    """The maneuver's mean angle of attack at the vane from the kinematics alone (the
+    smoothed ground velocity and attitude, the steady horizontal wind; no gusts, no
+    vertical wind, no vane offset or scale error), the vane's mean reading minus it [rad],
+    and the samples: one point of
+    :func:`~simplexspline.aero.reconstruction.campaign_calibration.vane_scale_from_means`.
+    None without vane readings."""
+    j = MEASUREMENT_NAMES.index("alpha")
+    at = xs.copy()
+    at[:, GUST] = 0.0
+    at[:, [STATE_NAMES.index(k) for k in ("wind_d", "kalpha", "balpha")]] = 0.0
+    kinematic = _predicted(at, arm)[:, j]
+    ok = np.isfinite(z[:, j]) & np.isfinite(kinematic)
+    if ok.sum() < 10:
+        return None
+    return (float(kinematic[ok].mean()), float((z[ok, j] - kinematic[ok]).mean()),
+            int(ok.sum()))
 
 
 def _air_velocity(xs: np.ndarray) -> np.ndarray:
@@ -1753,6 +1799,59 @@ def _passes(df, geometry: dict, settings: ReconstructionSettings, workers: _Work
             _run_all(tasks, settings.to_dict(), workers, progress))
 
 
+#: Test points of :func:`_test_point`: altitude bands [m] and airspeed steps (ratio).
+_POINT_ALTITUDE_M, _POINT_SPEED_RATIO = 300.0, 1.05
+
+
+def _test_point(task: Mapping) -> tuple:
+    """The test point a maneuver was flown at: its median altitude in bands of
+    ``_POINT_ALTITUDE_M`` and median airspeed in steps of ``_POINT_SPEED_RATIO`` (the
+    maneuvers of one test point share an air mass)."""
+    h = np.asarray(task.get("h", []), dtype=float)
+    v = np.asarray(task.get("tas", []), dtype=float)
+    hm = float(np.nanmedian(h)) if np.isfinite(h).any() else 0.0
+    vm = float(np.nanmedian(v)) if np.isfinite(v).any() and np.nanmedian(v) > 0 else 1.0
+    return (round(hm / _POINT_ALTITUDE_M), round(math.log(vm) / math.log(_POINT_SPEED_RATIO)))
+
+
+def _vane_scale_in_gusts(tasks: list, results: list, calibration: Mapping,
+                         settings: ReconstructionSettings, workers: _Workers,
+                         progress: bool) -> dict | None:
+    """The angle-of-attack vane's scale error and offset from the maneuvers' means when
+    turbulence kept every maneuver from estimating the scale
+    (:func:`~simplexspline.aero.reconstruction.campaign_calibration.vane_scale_from_means`):
+    one more pass over the maneuvers with gusts and GPS gives each one's mean kinematic
+    angle from a filter run without the vane (:func:`_vane_means`). Returns a record
+    (``used_as_calibration``: its sigma is at most ``OBSERVED`` (campaign_calibration) of
+    the prior's, and it becomes the campaign's ``kalpha`` and ``balpha``), or None (the
+    campaign calibrates per maneuver, the scale was estimated or given, too few
+    maneuvers)."""
+    if settings.air_data_calibration != "campaign" or not settings.estimate_vane_scale \
+            or not settings.vane_scale_from_means or "kalpha" in calibration:
+        return None
+    ok = [r for r in results if r["ok"]]
+    if not ok or not all(r["held"].get("kalpha") for r in ok):
+        return None                  # some maneuver estimated it itself
+    gusty = {int(r["maneuver"]) for r in ok
+             if r["held"].get("kalpha") == GUST_HELD_SCALE}
+    chosen = [t for t in tasks if int(t["maneuver"]) in gusty]
+    if len(chosen) < SCALE_FROM_MEANS_MIN:
+        return None
+    found = _run_all(chosen, {**settings.to_dict(), "vane_means": True}, workers, progress)
+    point = {int(t["maneuver"]): _test_point(t) for t in chosen}
+    means = [(*r["vane_means"], int(r["maneuver"]), point[int(r["maneuver"])])
+             for r in found if r["ok"] and r.get("vane_means")]
+    fit = vane_scale_from_means(means)
+    if fit is None:
+        return None
+    prior = float(settings.prior["vane_scale"])
+    return {"kalpha": fit.scale, "kalpha_sd": fit.scale_sd, "balpha": fit.offset,
+            "balpha_sd": fit.offset_sd, "maneuvers": list(fit.used),
+            "excluded": {str(m): round(z, 2) for m, z in fit.excluded.items()},
+            "angle_spread_rad": fit.spread,
+            "used_as_calibration": bool(fit.scale_sd <= OBSERVED * prior)}
+
+
 def _positions_to_estimate(df, geometry: Mapping) -> bool:
     """Whether a vane present in the table has no position in the sensor geometry."""
     given = set(geometry.get("vane_positions_given", ()))
@@ -1873,6 +1972,16 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                 for k in POSITION_STATES:
                     if r["ok"] and r["held"].get(k) == POSITION_NOT_REQUESTED:
                         r["held"][k] = POSITION_AFTER_LAGS
+        # turbulence everywhere: the vane's scale from the maneuvers' means, then held
+        vane_scale = _vane_scale_in_gusts(tasks, results, calibration, settings, pool,
+                                          progress)
+        if vane_scale is not None and vane_scale["used_as_calibration"]:
+            calibration = {**calibration, "kalpha": (vane_scale["kalpha"],
+                                                     vane_scale["kalpha_sd"]),
+                           "balpha": (vane_scale["balpha"], vane_scale["balpha_sd"])}
+            for task in tasks:
+                task["calibration"] = calibration
+            results = _run_all(tasks, settings.to_dict(), pool, progress)
         smoothed = _smooth_controls(df, tasks, pool) if settings.smooth_controls else {}
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
@@ -1943,6 +2052,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
         "control_smoothing": smoothing,
         "air_data_calibration": calibration,
         "air_data_calibration_excluded": excluded,
+        "vane_scale_from_means": vane_scale,
         "imu_calibration": imu,
         "maneuvers": {m: {k: r[k] for k in ("biases", "iterations", "innovations", "skipped",
                                             "held", "weak", "observability", "lags", "gusts")}
