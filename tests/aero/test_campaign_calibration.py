@@ -446,6 +446,15 @@ def test_a_vane_scale_from_the_maneuvers_means_recovers_the_line_and_leaves_out_
     fit_bad = vane_scale_from_means(bad)
     assert 5 in fit_bad.excluded and fit_bad.excluded[5] > 5
     assert fit_bad.scale == pytest.approx(fit.scale, abs=2 * fit.scale_sd)
+    # three maneuvers per test point sharing its slow gust (3e-3 rad): clustered by test
+    # point the sigma is wider than the independent one; two test points give no fit
+    shared = 3e-3 * rng.standard_normal(4)
+    legs = [(x, 0.03 + 0.2 * x + shared[m // 3] + 2e-4 * e, 600, m, m // 3)
+            for m, (x, e) in enumerate(zip(a, rng.standard_normal(a.size)))]
+    independent = vane_scale_from_means([leg[:4] for leg in legs])
+    assert vane_scale_from_means(legs).scale == pytest.approx(independent.scale)
+    assert vane_scale_from_means(legs).scale_sd > 1.5 * independent.scale_sd
+    assert vane_scale_from_means([(*leg[:4], leg[4] % 2) for leg in legs]) is None
     assert vane_scale_from_means(means[:SCALE_FROM_MEANS_MIN - 1]) is None
     assert vane_scale_from_means([(0.05, 0.04, 600, m) for m in range(8)]) is None
     assert vane_scale_from_means([(float("nan"), 0.0, 600, m) for m in range(8)]) is None

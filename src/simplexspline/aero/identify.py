@@ -752,8 +752,9 @@ def _vane_scale_note(data, settings: IdentificationSettings, meta: Mapping,
     reconstruction held it at 1 in every maneuver (turbulence in all of them, no GPS, or
     not requested) and the maneuvers' means could not determine it either (docs/
     reconstruction.md, "The vane's scale in turbulence"), so the angle of attack carries
-    the vane's own scale error, and with it every derivative along alpha. The note, or '' (the scale given or estimated, no
-    vane, no reconstruction record, or no longitudinal coefficient modelled).
+    the vane's own scale error, and with it every derivative along alpha. The note, or ''
+    (the scale given or estimated, no vane, no reconstruction record, or no longitudinal
+    coefficient modelled).
 
     A vane reads the local flow, which the fuselage's upwash turns by several per cent;
     measured on a simulated global5000 course in light turbulence whose vane read 1.25x
