@@ -119,10 +119,10 @@ GUST_HELD_POSITION = ("not estimated in turbulence (gusts in this maneuver): con
 #: :func:`lone_in_gusts`): on a simulated 737 course a
 #: turn's 0.67 +- 0.15 m/s (truth 0) beside another turn's 0.17 +- 0.92 put every airspeed
 #: 0.66 m/s off.
-LONE_IN_GUSTS = ("the only maneuver that observes it (or that holds more than "
-                 f"{LONE_SHARE:.0%} of what the maneuvers know of it) had gusts, whose slow "
-                 "horizontal part trades against it beyond its sigma, with nothing to check it "
-                 "against: held at its prior in the maneuvers with gusts")
+LONE_IN_GUSTS = ("every maneuver that observes it had gusts (or one with gusts holds more "
+                 f"than {LONE_SHARE:.0%} of what the maneuvers know of it), whose slow "
+                 "horizontal part trades against it beyond its sigma, with nothing in still air "
+                 "to check it against: held at its prior in the maneuvers with gusts")
 #: The constants that trade against the horizontal wind (the airspeed bias along the track,
 #: the sideslip-vane offset across it), whose gusts a maneuver's wind states follow only in
 #: part. The angle-of-attack vane offset trades against the vertical wind, whose mean over a
