@@ -1825,8 +1825,9 @@ def _vane_scale_in_gusts(tasks: list, results: list, calibration: Mapping,
     angle from a filter run without the vane (:func:`_vane_means`). Returns a record
     (``used_as_calibration``: its sigma is at most ``OBSERVED`` (campaign_calibration) of
     the prior's, and it becomes the campaign's ``kalpha`` and ``balpha``), or None (the
-    campaign calibrates per maneuver, the scale was estimated or given, too few
-    maneuvers)."""
+    campaign calibrates per maneuver, a maneuver or the campaign estimated the scale, too
+    few maneuvers). A scale the sensor geometry gives is undone first and the means find
+    the error left, as a filter in calm air does."""
     if settings.air_data_calibration != "campaign" or not settings.estimate_vane_scale \
             or not settings.vane_scale_from_means or "kalpha" in calibration:
         return None
