@@ -596,15 +596,16 @@ class ScaleFromMeans:
 
 
 def _fit_means(a: np.ndarray, r: np.ndarray, w: np.ndarray) -> tuple:
-    """Weighted straight line ``r = b + k a``: (k, b, cov, residuals, sigma^2)."""
+    """Weighted straight line ``r = b + k a``: (k, b, cov, residuals, sigma^2, weighted
+    residual terms ``X' W e`` per point (n, 2), ``(X' W X)^-1``)."""
     X = np.column_stack([np.ones_like(a), a])
     W = w / w.mean()
-    A = X.T @ (W[:, None] * X)
-    cov0 = np.linalg.inv(A)
-    coef = cov0 @ (X.T @ (W * r))
+    bread = np.linalg.inv(X.T @ (W[:, None] * X))
+    coef = bread @ (X.T @ (W * r))
     res = r - X @ coef
     s2 = float(np.sum(W * res ** 2) / (a.size - 2))
-    return float(coef[1]), float(coef[0]), cov0 * s2, res, s2
+    return (float(coef[1]), float(coef[0]), bread * s2, res, s2,
+            X * (W * res)[:, None], bread)
 
 
 def vane_scale_from_means(means, false_alarm: float = FALSE_ALARM) -> ScaleFromMeans | None:
@@ -652,20 +653,18 @@ def vane_scale_from_means(means, false_alarm: float = FALSE_ALARM) -> ScaleFromM
     if len(kept) < SCALE_FROM_MEANS_MIN:
         return None
     grouped = all(len(m) > 4 for m in kept)
-    if grouped and len({m[4] for m in kept}) < 3:
-        return None
     excluded = {}
     while True:
         a, r, w = (np.array([m[j] for m in kept], dtype=float) for j in range(3))
         if not np.ptp(a) > 0:
             return None
-        k, b, cov, res, s2 = _fit_means(a, r, w)
+        k, b, cov, res, s2, terms, bread = _fit_means(a, r, w)
         if len(kept) <= SCALE_FROM_MEANS_MIN:
             break
         worst, z_worst = None, outlier_threshold(len(kept), false_alarm)
         for i in range(len(kept)):
             rest = np.arange(len(kept)) != i
-            k_i, b_i, cov_i, _, s2_i = _fit_means(a[rest], r[rest], w[rest])
+            k_i, b_i, cov_i, _, s2_i, _, _ = _fit_means(a[rest], r[rest], w[rest])
             x = np.array([1.0, a[i]])
             # the mean's own scatter (its weight) plus the others' line's uncertainty
             var = s2_i * w[rest].mean() / w[i] + float(x @ cov_i @ x)
@@ -680,13 +679,9 @@ def vane_scale_from_means(means, false_alarm: float = FALSE_ALARM) -> ScaleFromM
         groups = [m[4] for m in kept]
         if len(set(groups)) < 3:
             return None
-        X = np.column_stack([np.ones_like(a), a])
-        W = w / w.mean()
-        bread = np.linalg.inv(X.T @ (W[:, None] * X))
         meat = np.zeros((2, 2))
         for g in set(groups):
-            i = np.array([x == g for x in groups])
-            sg = X[i].T @ (W[i] * res[i])
+            sg = terms[np.array([x == g for x in groups])].sum(axis=0)
             meat += np.outer(sg, sg)
         G = len(set(groups))
         clustered = bread @ meat @ bread * G / (G - 1)
