@@ -80,6 +80,30 @@ def test_missing_sensors_are_reported_not_invented(imported):
     assert "missing sensors: beta, psi" in text and "channels without data: psi" in text
 
 
+def test_a_sensor_at_one_value_through_the_record_is_a_channel_without_data(tmp_path):
+    """A heading recorded as zeros is a dead channel, not a flight due north."""
+    from simplexspline.errors import FlightDataError
+
+    d = tmp_path / "rec"
+    shutil.copytree(DATA, d)
+    rows = (d / "yaw_rate.txt").read_text().splitlines()
+    (d / "heading.txt").write_text("\n".join([rows[0]] + [f"{ln.split()[0]} 0.0"
+                                                            for ln in rows[1:]]) + "\n")
+    mapping = tmp_path / "mapping.toml"
+    mapping.write_text(MAPPING.read_text().replace('path = "."', f'path = "{d}"')
+                       .replace('list = "maneuvers.csv"', f'list = "{d / "maneuvers.csv"}"'))
+    result = import_record(mapping)
+    assert "psi" not in result.data.columns and "psi" in result.empty
+    assert result.constant == {"psi": 0.0}
+    assert "dead or unconnected sensor (treated as without data): psi = 0" in result.summary()
+    # a required channel at one value stops the import and says so
+    (d / "delta_e.txt").write_text("\n".join(["1.5"] * 1314) + "\n")
+    with pytest.raises(FlightDataError, match=r"required channel\(s\) \['de'\] are mapped but "
+                                              r"hold no data .*at one value through the whole "
+                                              r"record: de = 0.0261799"):
+        import_record(mapping)
+
+
 def test_maneuvers_from_the_list_keep_their_types_and_drop_the_ground(imported, truth):
     df = imported.data
     listed = pd.read_csv(DATA / "maneuvers.csv")

@@ -196,6 +196,25 @@ def test_units_via_pint():
     assert quantity("1 slug*ft^2", "kg*m^2") == pytest.approx(1.3558179483314004)
 
 
+@pytest.mark.parametrize(("unit", "target", "value"), [
+    ("g", "m/s^2", 9.80665), ("[g]", "m/s^2", 9.80665), ("G", "m/s^2", 9.80665),
+    ("[deg]", "rad", np.pi / 180), ("(deg/s)", "rad/s", np.pi / 180),
+    ("deg C", "K", 274.15), ("[deg C]", "K", 274.15), ("C", "K", 274.15),
+    ("F", "K", 255.92777777777778), ("fpm", "m/s", 0.00508), ("pph", "kg/s", 0.45359237 / 3600),
+    ("[lbs/hr]", "kg/s", 0.45359237 / 3600), ("[kts]", "m/s", 1852 / 3600),
+    ("[mach]", "dimensionless", 1.0), ("[-]", "dimensionless", 1.0)])
+def test_flight_test_spellings_of_units(unit, target, value):
+    """Channel lists write units in brackets, 'g' for the standard gravity and 'deg C'."""
+    assert conversion(unit, target)(1.0) == pytest.approx(value)
+
+
+def test_g_is_a_gram_where_a_mass_is_meant():
+    """The standard-gravity reading of 'g' holds for accelerations only."""
+    assert conversion("g", "kg")(1000.0) == pytest.approx(1.0)
+    with pytest.raises(InputError, match=r"unit 'C' is a .*current"):
+        conversion("C", "m/s^2")
+
+
 def test_a_required_channel_without_data_is_named(tmp_path):
     p = _mapping(tmp_path, 'source = "pitch_rate"', 'source = "heading"')
     line = _line(p, 'q = { source = "heading"')

@@ -45,6 +45,13 @@ _WGS84_A, _WGS84_E2 = 6378137.0, 6.69437999014e-3
 #: Optional columns the summary lists as missing sensors when absent.
 _SENSORS = SENSOR_COLUMNS + ("x_gps", "y_gps", "z_gps", "vn_gps", "ve_gps", "vd_gps",
                              "pdot", "qdot", "rdot", "thrust_x")
+#: Channels that a working sensor never holds at one value through a whole record (noise,
+#: gusts and the flight itself move them): one that does is dead or unconnected, e.g. a
+#: heading channel recorded as zeros, and is treated as a channel without data.
+_LIVE = ("alpha", "beta", "phi", "theta", "psi", "p", "q", "r", "ax", "ay", "az", "pdot",
+         "qdot", "rdot", "tas", "cas", "ias", "h", "temperature", "total_temperature", "lat",
+         "lon", "alt_gps", "x_gps", "y_gps", "z_gps", "vn_gps", "ve_gps", "vd_gps", "de", "da",
+         "dr")
 
 
 @dataclass
@@ -60,7 +67,11 @@ class ImportResult:
     found : list of str
         Mapped channels with data (schema names).
     empty : list of str
-        Mapped channels without data (an empty file or all NaN).
+        Mapped channels without data (an empty file or all NaN, or a sensor channel constant
+        through the whole record: ``constant``).
+    constant : dict of str to float
+        Sensor channels (:data:`_LIVE`) at one value through the whole record (SI), dead or
+        unconnected: they are in ``empty`` and left out of the table.
     missing : list of str
         Sensor columns of the schema neither mapped nor derived.
     derived : dict of str to str
@@ -78,6 +89,7 @@ class ImportResult:
     sanity: SanityReport
     found: list = field(default_factory=list)
     empty: list = field(default_factory=list)
+    constant: dict = field(default_factory=dict)
     missing: list = field(default_factory=list)
     derived: dict = field(default_factory=dict)
     time_issues: list = field(default_factory=list)
@@ -104,6 +116,10 @@ class ImportResult:
                  f"channels found ({len(self.found)}): {', '.join(self.found)}"]
         if self.empty:
             lines.append(f"channels without data: {', '.join(self.empty)}")
+        if self.constant:
+            lines.append("channels at one value through the whole record, a dead or "
+                         "unconnected sensor (treated as without data): "
+                         + ", ".join(f"{k} = {v:g}" for k, v in self.constant.items()))
         lines.append("missing sensors: " + (", ".join(self.missing) if self.missing
                                              else "none"))
         lines.append("derived:")
@@ -124,7 +140,8 @@ class ImportResult:
 
     def to_dict(self) -> dict:
         """JSON-ready summary (stored in the output's metadata ``import``)."""
-        return {"found": self.found, "empty": self.empty, "missing": self.missing,
+        return {"found": self.found, "empty": self.empty, "constant": self.constant,
+                "missing": self.missing,
                 "derived": self.derived, "rate_hz": self.rate_hz,
                 "record_duration_s": self.record_duration_s, "airborne_s": self.airborne_s,
                 "ground_rule": self.ground_rule,
@@ -279,6 +296,13 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
     # averaged)
     cols = {k: sum(resample(c, grid, wrap=k in _WRAPPING) for c in parts)
             / (len(parts) if k in AVERAGED else 1) for k, parts in clean.items()}
+    constant = {}
+    for k in [k for k in _LIVE if k in cols]:
+        finite = cols[k][np.isfinite(cols[k])]
+        if finite.size > 1 and finite.min() == finite.max():
+            constant[k] = float(finite[0])
+            empty.append(k)
+            del cols[k]
     found = [k for k in m.channels if k in cols]
     derived = {}
     _derive(cols, m, derived)
@@ -378,12 +402,15 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
     if missing:
         empty_req = [c for c in missing if c in empty]
         if empty_req:
+            dead = [f"{k} = {constant[k]:g}" for k in empty_req if k in constant]
+            why = (f"; at one value through the whole record: {', '.join(dead)} (a dead or "
+                   "unconnected sensor, or the wrong source?)" if dead else "")
             raise FlightDataError(f"required channel(s) {empty_req} are mapped but hold no data "
-                                  f"({m.where(empty_req[0])}): the schema needs them")
+                                  f"({m.where(empty_req[0])}){why}: the schema needs them")
         raise InputError(f"{m.path}: required column(s) {missing} are neither mapped nor "
                          "derivable: add them to [channels]")
     result = ImportResult(
-        data=df, metadata={}, sanity=sanity, found=found, empty=empty,
+        data=df, metadata={}, sanity=sanity, found=found, empty=empty, constant=constant,
         missing=[c for c in _SENSORS if c not in df.columns], derived=derived,
         time_issues=issues, segment_notes=notes, ground_rule=rule, rate_hz=round(1.0 / dt, 6),
         record_duration_s=float(grid[-1] - grid[0]), airborne_s=float(airborne.sum() * dt))

@@ -3,12 +3,17 @@
 A flight-test record names its units as people write them ('deg', 'knot', 'ft', 'g0' for
 standard gravity, 'degC', 'lb', 'slug ft^2', 'deg/s'); :func:`conversion` turns one into a
 function that maps values to the schema's unit, refusing a unit pint does not know or one of
-another dimension. Offset units (degC, degF) are converted as absolute temperatures. The pint
+another dimension. Offset units (degC, degF) are converted as absolute temperatures. The
+spellings of flight-test channel lists are read as they mean: '[deg]' (brackets dropped),
+'fpm', 'pph', 'mach', 'deg C', and, for an acceleration, 'g' (standard gravity, not the
+gram) and, for a temperature, 'C' or 'F'. The pint
 registry is built once per process (about 1-2 s; it is the only cost of using pint).
 
 >>> f = conversion("knot", "m/s")
 >>> round(float(f(100.0)), 4)
 51.4444
+>>> float(conversion("[g]", "m/s^2")(1.0))
+9.80665
 >>> round(quantity("322 ft^2", "m^2"), 3)
 29.915
 """
@@ -29,8 +34,16 @@ class UnitError(InputError):
     """A unit string that is unknown or of the wrong dimension (message names both)."""
 
 
-#: Schema unit tags that pint spells differently.
-_SCHEMA_TAGS = {"-": "dimensionless", "": "dimensionless"}
+#: Schema unit tags and flight-test spellings that pint spells differently (or not at
+#: all): a record's channel list says 'fpm', 'pph', 'mach' or '[-]'.
+_SCHEMA_TAGS = {"-": "dimensionless", "": "dimensionless", "none": "dimensionless",
+                "mach": "dimensionless", "fpm": "ft/min", "pph": "lb/hour",
+                "deg c": "degC", "deg_c": "degC", "deg f": "degF", "deg_f": "degF"}
+#: Spellings that mean one thing for a quantity of one dimension: 'g' is a gram to pint but
+#: the standard gravity on every accelerometer channel list; 'C' and 'F' are coulomb and
+#: farad but Celsius and Fahrenheit on a temperature channel.
+_BY_DIMENSION = {"[length] / [time] ** 2": {"g": "g0", "gs": "g0", "g's": "g0"},
+                 "[temperature]": {"c": "degC", "f": "degF"}}
 
 
 @lru_cache(maxsize=1)
@@ -41,11 +54,24 @@ def registry():
     return pint.UnitRegistry()
 
 
-def _unit(text: str):
+def _spelling(text: str, dimension: str | None = None) -> str:
+    """``text`` as pint spells it: enclosing brackets dropped ('[deg]' as channel lists
+    write units), flight-test tags (:data:`_SCHEMA_TAGS`) and, for a quantity of
+    ``dimension``, its own spellings (:data:`_BY_DIMENSION`) translated."""
+    t = text.strip()
+    while len(t) > 1 and (t[0], t[-1]) in (("[", "]"), ("(", ")")):
+        t = t[1:-1].strip()
+    key = t.lower()
+    if dimension is not None and key in _BY_DIMENSION.get(dimension, {}):
+        return _BY_DIMENSION[dimension][key]
+    return _SCHEMA_TAGS.get(key, t)
+
+
+def _unit(text: str, dimension: str | None = None):
     import pint  # optional dependency (the 'aero' extra), already loaded by registry()
 
     ureg = registry()
-    spelled = _SCHEMA_TAGS.get(text.strip(), text)
+    spelled = _spelling(text, dimension)
     try:
         return ureg.Unit(spelled)
     except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError, ValueError,
@@ -66,7 +92,8 @@ def conversion(unit: str, target: str) -> Callable[[np.ndarray], np.ndarray]:
     import pint  # optional dependency (the 'aero' extra), already loaded by registry()
 
     ureg = registry()
-    src, dst = _unit(unit), _unit(target)
+    dst = _unit(target)
+    src = _unit(unit, str(dst.dimensionality))
     if src.dimensionality != dst.dimensionality:
         raise UnitError(f"unit {unit!r} is a {src.dimensionality} but {target!r} "
                         f"({dst.dimensionality}) is needed")
