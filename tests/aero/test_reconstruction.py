@@ -375,9 +375,15 @@ def test_without_gps_unobservable_biases_are_held_and_reported(noisy_campaign):
     one = noisy_campaign[noisy_campaign["maneuver"] == 3].drop(columns=GPS)
     rec = reconstruct(one)
     held = rec.maneuvers[3]["held"]
-    for ch in ("tas", "alpha", "beta", "wind_n", "kalpha"):
+    for ch in ("tas", "beta", "wind_n", "kalpha"):
         assert "unobservable without GPS" in held[ch], ch
         assert rec.maneuvers[3]["biases"][ch][0] == pytest.approx(0.0, abs=1e-9)
+    # one elevator pulse's pitch rates pin the alpha-vane offset (omega x V), not the
+    # sideslip vane's: that one is held at zero, and says why
+    assert "campaign's rotations, which did not pin it" in held["beta"]
+    value, sigma = rec.maneuvers[3]["biases"]["alpha"]
+    assert held["alpha"].startswith("campaign air-data calibration")
+    assert abs(value - DEFAULT_BIAS["alpha"]) < 3 * sigma and sigma < 1e-3
     assert "wind_n" not in rec.data
     assert "tas: not estimated, unobservable without GPS" in rec.summary()
     assert "1 - 2 b / V" in rec.sensors()["flags"]["all"]        # what it does to C
@@ -524,6 +530,33 @@ def test_maneuvers_without_gps_use_the_campaign_calibration(noisy_campaign):
         assert rec.maneuvers[3]["held"][ch].startswith("campaign air-data calibration")
         assert rec.maneuvers[3]["biases"][ch][0] == pytest.approx(value, abs=1e-6)
     assert rec.maneuvers[3]["held"]["wind_n"].startswith("unobservable without GPS")
+
+
+def test_without_gps_the_campaign_finds_the_vane_offsets_through_its_rotations(
+        noisy_campaign):
+    """No GPS anywhere: the campaign's rotations (omega x V) tell both vane offsets, and
+    held at zero instead, the offsets corrupt the kinematics within each maneuver."""
+    data = noisy_campaign.drop(columns=GPS)
+    rec = reconstruct(data, workers=2)
+    cal = rec.data.attrs["reconstruction"]["air_data_calibration"]
+    assert set(cal) == {"balpha", "bbeta"}               # never the airspeed bias
+    for k, ch in (("balpha", "alpha"), ("bbeta", "beta")):
+        value, sigma = cal[k]
+        assert abs(value - DEFAULT_BIAS[ch]) < min(4 * sigma, 6e-4), k
+        assert all(rec.maneuvers[m]["held"][ch].startswith("campaign air-data calibration")
+                   for m in rec.maneuvers)
+    assert "unobservable without GPS" in rec.maneuvers[3]["held"]["tas"]
+    held = reconstruct(data, workers=2,
+                       settings=ReconstructionSettings(air_data_calibration="maneuver"))
+    assert not held.data.attrs["reconstruction"]["air_data_calibration"]
+
+    def within(r, ch):        # the worst maneuver's error about its own mean
+        d = r.data
+        return float((d[ch] - d["true_" + ch]).groupby(d["maneuver"]).std().max())
+
+    for ch in ("alpha", "beta"):
+        assert within(rec, ch) < within(held, ch) / 3, ch
+        assert abs((rec.data[ch] - rec.data["true_" + ch]).mean()) < 6e-4, ch
 
 
 def test_calibration_pass_prefers_maneuvers_that_turn():
@@ -825,3 +858,24 @@ def test_trimmed_samples_are_level_still_and_ball_centred():
     assert not trimmed({**base, "ay": np.full(n, -0.06)}).any()
     assert trimmed({**base, "ay": np.full(n, -0.06)}, {"bay": (-0.06, 0.0)}).all()
     assert not trimmed({k: v for k, v in base.items() if k != "ay"}).any()
+
+
+@pytest.mark.parametrize("accelerometers", [True, False])
+def test_without_gps_only_the_calibration_pass_estimates_the_vane_offsets(accelerometers):
+    from simplexspline.aero.reconstruction.observability import observability_plan
+
+    present = {"gps_velocity": False, "gps_position": False, "gps_vertical": False,
+               "accelerometers": accelerometers, "beta": True, "psi": True,
+               "wind_given": False}
+    first = observability_plan(present, calibration_pass=True)["held"]
+    second = observability_plan(present)["held"]
+    for state in ("btas", "kalpha", "kbeta", "wind_n"):
+        assert first[state].startswith("unobservable without GPS"), state
+    for state in ("balpha", "bbeta"):
+        # the campaign's second pass holds what the first could not pin, and says why
+        assert second[state].startswith("unobservable without GPS"), state
+        if accelerometers:
+            assert state not in first, state
+            assert "the campaign's rotations, which did not pin it" in second[state]
+        else:
+            assert first[state] == second[state], state

@@ -88,6 +88,13 @@ VANE_STATES = {"alpha": ("balpha", "kalpha", "xalpha"), "beta": ("bbeta", "kbeta
 #: does not reach (the airspeed bias trades against the wind along the track, the
 #: sideslip vane's against the crosswind, the yaw-gyro bias against the heading).
 STRAIGHT_CALIBRATION_STATES = ("balpha", "kalpha", "xalpha")
+#: Without GPS the campaign's vane offsets (observed through omega x V only) are kept when
+#: their combined sigma is at most this share of the prior's (0.001 rad for the default
+#: 0.02), not half of it as with GPS: a weakly observed offset is a guess that can be
+#: worse than the sensor's own error (one f16 elevator pulse gave a sideslip-vane offset
+#: of +1.7e-3 +- 3.9e-3 rad for a true -1.7e-3; six maneuvers -1.9e-3 +- 2.2e-4, forty
+#: A-4 maneuvers -1.74e-3 +- 5e-5).
+OFFSET_SHARE_WITHOUT_GPS = 0.05
 #: The campaign's wind starts a straight maneuver without a heading channel only when its
 #: sigma is at most this share of the crosswind sigma the priors give
 #: (:func:`_crosswind_prior_sd`): turns that disagree leave the crosswind held at zero.
@@ -626,7 +633,8 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
                     + [rotation_velocity(rates, np.array((1.0, 0.0, 0.0)))])
     plan = observability_plan(present, estimate_vane_scale=s["estimate_vane_scale"],
                               estimate_vane_position=s["estimate_vane_position"],
-                              positions_given=geo.get("vane_positions_given", ()))
+                              positions_given=geo.get("vane_positions_given", ()),
+                              calibration_pass=bool(s.get("calibration_pass")))
     # the campaign's air-data calibration (from its GPS maneuvers) also serves the
     # maneuvers without GPS, which cannot observe it themselves
     calibration = {k: v for k, v in (task.get("calibration") or {}).items()
@@ -1639,15 +1647,18 @@ def _longest_of_each_kind(tasks: list, kinds: Mapping) -> list:
 def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers: _Workers,
                           progress: bool, kinds: Mapping | None = None
                           ) -> tuple[dict, dict, dict, dict, list]:
-    """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers.
+    """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers
+    (over every maneuver with accelerometers when none has GPS: then the vane offsets and
+    the IMU biases, :func:`~simplexspline.aero.reconstruction.observability.observability_plan`).
 
     Each maneuver's final estimate is a posterior of the same constant under the same
     prior; their combination counts the prior once, and an estimate too far from the
     others' is left out, with every other estimate of that maneuver
     (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_campaign`).
-    A state no maneuver estimates (no GPS anywhere, no vane), or whose combined sigma is
-    above half its prior (the campaign barely observes it), is left out: the second pass
-    then holds it at zero when the maneuver has no GPS, or estimates it per maneuver.
+    A state no maneuver estimates (an airspeed bias without GPS, no vane), or whose
+    combined sigma is above half its prior (the campaign barely observes it; without GPS
+    above :data:`OFFSET_SHARE_WITHOUT_GPS` of it), is left out: the second pass then holds
+    it at zero when the maneuver has no GPS, or estimates it per maneuver.
     Without a heading channel only maneuvers that turn by at least
     :data:`~simplexspline.aero.reconstruction.wind_triangle.MIN_HEADING_CHANGE` are used
     when there are any.
@@ -1673,27 +1684,35 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         prior sigma)`` [m/s]); empty without turns or with ``wind_calibration='maneuver'``
         (:func:`_wind_prior`).
     """
-    gps = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
+    first = [t for t in tasks if any(c in t for c in ("vn_gps", "x_gps"))]
+    kept_share = 0.5          # of the prior sigma that a combined estimate may keep
+    gps = bool(first)
     if not gps:
+        # without GPS anywhere the pass still tells the vane offsets and the IMU biases
+        # (observability: the campaign's rotations), from the maneuvers with accelerometers
+        first = [t for t in tasks if channels_present(t)["accelerometers"]]
+        kept_share = OFFSET_SHARE_WITHOUT_GPS
+    if not first:
         return {}, {}, {}, {}, []
-    gps = sorted(gps, key=heading_excursion, reverse=True)
+    first = sorted(first, key=heading_excursion, reverse=True)
     # without a heading channel a straight maneuver trades its heading against a crosswind
     # and the air-data errors with them (wind_triangle): calibrate on the turns if any,
     # except the angle-of-attack vane, which the straight maneuvers observe as well; those
     # join kind by kind, the longest first (stationary measurements each hold one angle of
     # attack for a minute and together tell the vane's offset from its scale error; the
     # pulses' pitch rates tell its position)
-    turning = [t for t in gps if heading_excursion(t) >= MIN_HEADING_CHANGE]
-    if turning and not all(channels_present(t)["psi"] for t in gps):
+    # (without GPS the wind is held and no heading trades against it: every maneuver)
+    turning = [t for t in first if heading_excursion(t) >= MIN_HEADING_CHANGE]
+    if gps and turning and not all(channels_present(t)["psi"] for t in first):
         straight = _longest_of_each_kind(
-            [t for t in gps if heading_excursion(t) < MIN_HEADING_CHANGE], kinds or {})
-        gps = turning + straight
+            [t for t in first if heading_excursion(t) < MIN_HEADING_CHANGE], kinds or {})
+        first = turning + straight
         turning = {int(t["maneuver"]) for t in turning}
     else:
-        turning = {int(t["maneuver"]) for t in gps}
-    gps = gps[:settings.calibration_maneuvers]
+        turning = {int(t["maneuver"]) for t in first}
+    first = first[:settings.calibration_maneuvers]
     s = {**settings.to_dict(), "calibration_pass": True, "smoother": False}
-    results = _run_all(gps, s, workers, progress)
+    results = _run_all(first, s, workers, progress)
 
     def used(r: Mapping, k: str) -> bool:
         return r["ok"] and (r["maneuver"] in turning or k in STRAIGHT_CALIBRATION_STATES)
@@ -1736,7 +1755,7 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
         gusty = {r["maneuver"] for r in results if r["ok"] and r.get("gusts", 0.0) > 0}
         lone = lone_in_gusts(combined, gusty, LONE_IN_GUSTS_STATES, est)
         for k, c in combined.items():
-            if c is None or (c.sigma > 0.5 * est[k][0][2] and k not in together):
+            if c is None or (c.sigma > kept_share * est[k][0][2] and k not in together):
                 continue              # the campaign does not observe it: left at its prior
             if k in lone:             # one turbulent maneuver alone: nothing to check it
                 excluded.setdefault(k, {}).update(lone[k])
