@@ -119,3 +119,52 @@ def test_repeated_time_stamps_in_a_record_are_repaired_and_reported(tmp_path):
     assert [i.kind for i in result.time_issues] == ["duplicate"]
     assert "channel 'alpha': 1 repeated time stamp(s)" in result.summary()
     assert np.array_equal(result.data["alpha"], clean["alpha"])
+
+
+def test_a_slow_sensor_recorded_faster_keeps_its_updates():
+    """A 1 Hz fix held for ten 10 Hz samples: the updates are kept and interpolated, a
+    value that stood still (on the ground) is no dropout, a live channel is untouched."""
+    from simplexspline.aero.data.time_base import held_updates
+
+    t = np.arange(600) * 0.1
+    x = np.where(t < 20.0, 0.0, 60.0 * (t - 20.0))            # parked, then 60 m/s
+    held = x[(np.arange(600) // 10) * 10]                      # the receiver's 1 Hz fixes
+    tk, vk, issue = held_updates("x_gps", t, held)
+    assert issue.kind == "held" and issue.duration == pytest.approx(1.0)
+    assert "updating every 1 s" in issue.text()
+    assert np.max(np.diff(tk)) <= 1.0 + 1e-9                  # the parked run: no gap
+    c = clean_time_stamps("x_gps", tk, vk)
+    assert not c.issues and c.dt == pytest.approx(1.0)
+    back = resample(c, t)
+    fixes = t <= tk[-1]
+    assert np.max(np.abs(back[fixes] - x[fixes])) < 1e-9       # exact for a straight line
+    assert np.max(np.abs(held - x)) > 50.0                     # the stairs: 54 m off
+    live = np.sin(t)
+    assert held_updates("x_gps", t, live)[2] is None
+    assert held_updates("x_gps", t, np.zeros_like(t))[2] is None   # dead, not slow
+    with_gap = held.copy()
+    with_gap[100:110] = np.nan
+    tk, vk, _ = held_updates("x_gps", t, with_gap)
+    assert np.isnan(vk).sum() == 10                            # missing samples stay missing
+
+
+def test_gps_fixes_held_at_the_recorder_rate_are_interpolated(tmp_path):
+    d = tmp_path / "rec"
+    shutil.copytree(DATA, d)
+    for name in ("gps_lat.txt", "gps_lon.txt"):
+        lines = (d / name).read_text().splitlines()
+        rows = [ln.split() for ln in lines[1:]]
+        (d / name).write_text("\n".join([lines[0]] + [f"{a} {rows[(i // 10) * 10][1]}"
+                                                      for i, (a, _) in enumerate(rows)]) + "\n")
+    text = (DATA / "mapping.toml").read_text().replace('path = "."', f'path = "{d}"').replace(
+        'list = "maneuvers.csv"', f'list = "{d / "maneuvers.csv"}"')
+    (d / "mapping.toml").write_text(text)
+    held = import_record(d / "mapping.toml")
+    clean = import_record(DATA / "mapping.toml")
+    assert {i.channel for i in held.time_issues if i.kind == "held"} == {"lat", "lon"}
+    assert not [i for i in held.time_issues if i.kind == "dropout"]
+    assert len(held.data) == len(clean.data)
+    err = np.hypot(held.data["x_gps"] - clean.data["x_gps"],
+                   held.data["y_gps"] - clean.data["y_gps"])
+    assert np.max(err) < 2.0                                   # m; held as stairs: 100+
+    assert not held.sanity.failed()

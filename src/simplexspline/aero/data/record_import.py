@@ -31,7 +31,9 @@ from simplexspline.aero.data.flight_data import (
 from simplexspline.aero.data.mapping import AVERAGED, ImportMapping, read_mapping
 from simplexspline.aero.data.records import read_channels
 from simplexspline.aero.data.sanity import SanityReport, check_record
-from simplexspline.aero.data.time_base import clean_time_stamps, common_grid, resample
+from simplexspline.aero.data.time_base import (
+    clean_time_stamps, common_grid, held_updates, resample,
+)
 from simplexspline.aero.data.units import conversion
 from simplexspline.aero.reconstruction.wind_triangle import MIN_HEADING_CHANGE
 from simplexspline.errors import FlightDataError, InputError
@@ -45,6 +47,10 @@ _WGS84_A, _WGS84_E2 = 6378137.0, 6.69437999014e-3
 #: Optional columns the summary lists as missing sensors when absent.
 _SENSORS = SENSOR_COLUMNS + ("x_gps", "y_gps", "z_gps", "vn_gps", "ve_gps", "vd_gps",
                              "pdot", "qdot", "rdot", "thrust_x")
+#: GPS channels: a receiver updates at 1-5 Hz, and a faster recorder holds each fix
+#: (:func:`~simplexspline.aero.data.time_base.held_updates`).
+_GPS_CHANNELS = ("lat", "lon", "alt_gps", "x_gps", "y_gps", "z_gps", "vn_gps", "ve_gps",
+                 "vd_gps")
 #: Channels that a working sensor never holds at one value through a whole record (noise,
 #: gusts and the flight itself move them): one that does is dead or unconnected, e.g. a
 #: heading channel recorded as zeros, and is treated as a channel without data.
@@ -286,6 +292,9 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
                                  f"{exc}") from None
             t = r.t if r.timed else origin + r.t
             name = target if len(ch.sources) == 1 else f"{target} ({source})"
+            if target in _GPS_CHANNELS:   # a GPS fix held at the recorder's rate
+                t, values, held = held_updates(name, t, values)
+                issues += [held] if held else []
             c = clean_time_stamps(name, t, values, gap_factor=rec.gap_factor)
             issues += c.issues
             parts.append(c)

@@ -11,7 +11,11 @@ it (:class:`TimeIssue`), never silently:
 * samples stamped before an earlier sample (time going backwards): dropped when they are few
   (``max_backwards`` samples); a longer run is a clock reset and an error (split the record);
 * a step longer than ``gap_factor`` nominal steps is a dropout: :func:`resample` leaves NaN in
-  it and the import splits the record there.
+  it and the import splits the record there;
+* a channel recorded faster than its sensor updates (a 1-5 Hz GPS receiver on a 10 Hz
+  recorder holds each fix for several samples, :func:`held_updates`): the repeats are
+  dropped and the updates interpolated; as stairs, a 1 Hz position would be up to one
+  second of flight (100 m) off.
 
 :func:`resample` puts a cleaned channel on the common grid by linear interpolation (angles
 that wrap are interpolated the short way round). The grid's rate is the fastest channel's
@@ -26,7 +30,13 @@ import numpy as np
 
 from simplexspline.errors import FlightDataError
 
-__all__ = ["TimeIssue", "CleanChannel", "clean_time_stamps", "common_grid", "resample"]
+__all__ = ["TimeIssue", "CleanChannel", "clean_time_stamps", "common_grid", "held_updates",
+           "resample", "HELD_SHARE"]
+
+#: A channel whose samples repeat the one before at least this share of the time holds
+#: the readings of a slower sensor (:func:`held_updates`); a sensor that updates at the
+#: recorder's rate repeats only where it stands still.
+HELD_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -36,7 +46,7 @@ class TimeIssue:
     Attributes
     ----------
     channel : str
-    kind : {'duplicate', 'conflicting-duplicate', 'jump', 'backwards', 'dropout'}
+    kind : {'duplicate', 'conflicting-duplicate', 'jump', 'backwards', 'dropout', 'held'}
     t : float
         Record time of the (first) glitch [s].
     samples : int
@@ -44,7 +54,7 @@ class TimeIssue:
     action : str
         'dropped' or 'split'.
     duration : float
-        Length of a dropout [s] (0 otherwise).
+        Length of a dropout, or a held channel's update interval [s] (0 otherwise).
     """
 
     channel: str
@@ -60,6 +70,11 @@ class TimeIssue:
             return (f"channel {self.channel!r}: dropout of {self.duration:.3g} s "
                     f"({self.samples} samples missing) at t = {self.t:.6g} s; record split "
                     "there")
+        if self.kind == "held":
+            return (f"channel {self.channel!r}: holds each reading for several samples (a "
+                    f"sensor updating every {self.duration:.3g} s, recorded faster): "
+                    f"{self.samples} repeated samples dropped from t = {self.t:.6g} s, the "
+                    "updates interpolated")
         what = {"duplicate": "repeated time stamp(s)",
                 "conflicting-duplicate": "repeated time stamp(s) with different values",
                 "jump": "time stamp(s) jumping ahead and back",
@@ -170,6 +185,60 @@ def clean_time_stamps(channel: str, t, values, *, gap_factor: float = 2.5,
         issues.append(TimeIssue(channel, "dropout", float(t[k]),
                                 int(round(duration / dt)) - 1, "split", duration))
     return CleanChannel(t, v, dt, gaps, issues)
+
+
+def held_updates(channel: str, t, values) -> tuple[np.ndarray, np.ndarray, TimeIssue | None]:
+    """The updates of a channel that holds each reading of a slower sensor.
+
+    A sample equal to the one before it is a repeat; when at least :data:`HELD_SHARE` of
+    the samples are repeats, the channel is a sensor read out faster than it updates, and
+    only the first sample of each run of equal values (the update) is kept; a run longer
+    than two update intervals is a value that stood still, and keeps one sample per update
+    interval. Missing samples (NaN) are kept where they are.
+
+    Parameters
+    ----------
+    channel : str
+        Name used in the report.
+    t, values : array_like, shape (n,)
+        Time stamps [s] and values.
+
+    Returns
+    -------
+    t, values : ndarray, shape (m,)
+        The updates (everything, m = n, when the channel does not hold its readings).
+    issue : TimeIssue or None
+        Kind 'held', with the update interval (median) as ``duration``.
+
+    Examples
+    --------
+    >>> t = np.arange(40) * 0.1
+    >>> tk, vk, issue = held_updates("lat", t, np.repeat([0.0, 1.0, 2.0, 3.0], 10))
+    >>> tk.tolist(), issue.duration, issue.samples
+    ([0.0, 1.0, 2.0, 3.0], 1.0, 36)
+    """
+    t = np.asarray(t, dtype=float)
+    v = np.asarray(values, dtype=float)
+    if v.size < 3:
+        return t, v, None
+    repeat = np.r_[False, v[1:] == v[:-1]]           # NaN never equals: kept
+    keep = ~repeat
+    updates = keep & np.isfinite(v)
+    if repeat.mean() < HELD_SHARE or updates.sum() < 2:
+        return t, v, None      # (one value throughout is a dead channel, not a slow one)
+    interval = float(np.median(np.diff(t[updates])))
+    # a value that stays much longer than an update interval stood still (a longitude
+    # while flying north, a position on the ground): its run keeps a sample per update
+    # interval, in step with the updates, or it would read as a dropout
+    idx = np.flatnonzero(keep)
+    ends = np.r_[idx[1:], v.size]                   # each run: idx[k] .. ends[k] - 1
+    step = max(1, int(round(interval / float(np.median(np.diff(t))))))
+    for a, b in zip(idx, ends):
+        if t[b - 1] - t[a] > 2.0 * interval:
+            keep[a:b:step] = True
+    first = int(np.flatnonzero(~keep)[0])
+    return t[keep], v[keep], TimeIssue(channel, "held", float(t[first]), int((~keep).sum()),
+                                       "dropped", interval)
 
 
 def common_grid(channels, rate_hz: float | None = None) -> np.ndarray:
