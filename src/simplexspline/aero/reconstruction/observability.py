@@ -7,20 +7,22 @@ never moves them), and says why. Rules (each one a structural observability argu
 filter's own variance reduction is checked afterwards by :func:`variance_reduction`):
 
 * **no GPS** (neither velocity nor position): the wind is unobservable (air data and IMU
-  only see the air-relative motion), and so are an airspeed bias and the vanes' scale
-  factors: wind held at zero (or at the ``wind_*`` columns when given), airspeed bias and
-  scale factors at zero, the same in every maneuver instead of a different guess per
-  maneuver. A vane's offset is the exception: it shifts the air-relative velocity by a
+  only see the air-relative motion), and so are the vanes' scale factors: wind held at
+  zero (or at the ``wind_*`` columns when given), scale factors at zero, the same in every
+  maneuver instead of a different guess per maneuver. The vane offsets and the airspeed
+  bias are observable over a campaign: each changes the air-relative velocity by a
   constant that the kinematics see through the rotation terms ``omega x V`` (an
   angle-of-attack offset moves w, and the roll rate turns w into the lateral acceleration
-  the sideslip vane sees; in a constant wind the air-relative velocity obeys the same
-  kinematics). One maneuver's rates barely tell it, but the campaign's pass over all its
-  maneuvers (``calibration_pass``) does, and the second pass holds it at the campaign's
-  estimate; where the campaign does not pin it, it is held at zero. Held at zero, an
-  offset also corrupts the kinematics: on a 40-maneuver A-4 campaign without GPS a 0.2 deg
-  alpha offset made the sideslip 2.2e-4 rad RMS off within each maneuver (p times the
-  offset's w) and the rolling moment's model 1.9 times its noise; estimated by the
-  campaign, 4.4e-5 rad and 0.8 times.
+  the sideslip vane sees; a wrong airspeed turns by the wrong amount; in a constant wind
+  the air-relative velocity obeys the same kinematics). One maneuver's rates barely tell
+  them, but the campaign's pass over its maneuvers does: the offsets in the first pass
+  (``calibration_pass``), the airspeed bias in a pass that holds them
+  (``airspeed_pass``: estimated together, the alpha-vane offset traded against it), and
+  the last pass holds all at the campaign's estimates; what the campaign does not pin is
+  held at zero. Held at zero, an offset also corrupts the kinematics: on a 40-maneuver A-4
+  campaign without GPS a 0.2 deg alpha offset made the sideslip 2.2e-4 rad RMS off within
+  each maneuver (p times the offset's w) and the rolling moment's model 1.9 times its
+  noise; estimated by the campaign, 4.4e-5 rad and 0.8 times.
 * **no sideslip vane**: its offset and scale are not estimated. With GPS, the changes of
   beta follow from the lateral kinematics (ay, p, r, phi and the GPS velocities), but a
   constant crosswind and a constant sideslip look the same in straight flight; without GPS
@@ -73,7 +75,8 @@ GPS_VELOCITY = ("vn_gps", "ve_gps", "vd_gps")
 GPS_POSITION = ("x_gps", "y_gps", "z_gps")
 ACCELEROMETERS = ("ax", "ay", "az")
 _AIR_DATA_ERRORS = ("btas", "balpha", "bbeta")
-#: The vane offsets: without GPS observable over a campaign through omega x V.
+#: The vane offsets: without GPS observable over a campaign through omega x V (the
+#: airspeed bias too, in a pass of its own).
 _OFFSETS = ("balpha", "bbeta")
 _WIND = ("wind_n", "wind_e", "wind_d")
 
@@ -139,7 +142,8 @@ POSITION_NOT_REQUESTED = ("not requested (estimate_vane_position=False): held at
 
 def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True,
                        estimate_vane_position: bool = True,
-                       positions_given: tuple = (), calibration_pass: bool = False) -> dict:
+                       positions_given: tuple = (), calibration_pass: bool = False,
+                       airspeed_pass: bool = False) -> dict:
     """The states to estimate and to hold, with the reasons.
 
     Parameters
@@ -157,6 +161,9 @@ def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True,
         The campaign's first pass (its estimates are combined over the maneuvers): without
         GPS the vane offsets are estimated there when the accelerometers are present
         (through ``omega x V``; see the module docstring), and held otherwise.
+    airspeed_pass : bool
+        The campaign's pass without GPS that estimates the airspeed bias, the vane offsets
+        held at the first pass's estimates.
 
     Returns
     -------
@@ -174,8 +181,8 @@ def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True,
             held[s] = why + (": held at the given wind_* columns" if present["wind_given"]
                              else ": held at zero (still air)")
         for s in _AIR_DATA_ERRORS:
-            if s in _OFFSETS and present["accelerometers"]:
-                if calibration_pass:
+            if present["accelerometers"] and (s in _OFFSETS or s == "btas"):
+                if (calibration_pass and s in _OFFSETS) or (airspeed_pass and s == "btas"):
                     continue      # the campaign's rotations tell it (module docstring)
                 held[s] = (why + " but through the campaign's rotations, which did not "
                            "pin it: held at zero (the sensor's calibration error stays in "

@@ -88,9 +88,9 @@ VANE_STATES = {"alpha": ("balpha", "kalpha", "xalpha"), "beta": ("bbeta", "kbeta
 #: does not reach (the airspeed bias trades against the wind along the track, the
 #: sideslip vane's against the crosswind, the yaw-gyro bias against the heading).
 STRAIGHT_CALIBRATION_STATES = ("balpha", "kalpha", "xalpha")
-#: Without GPS the campaign's vane offsets (observed through omega x V only) are kept when
-#: their combined sigma is at most this share of the prior's (0.001 rad for the default
-#: 0.02), not half of it as with GPS: a weakly observed offset is a guess that can be
+#: Without GPS the campaign's vane offsets and airspeed bias (observed through omega x V
+#: only) are kept when their combined sigma is at most this share of the prior's (0.001
+#: rad for the default 0.02, 0.1 m/s for the default 2 m/s), not half of it as with GPS: a weakly observed offset is a guess that can be
 #: worse than the sensor's own error (one f16 elevator pulse gave a sideslip-vane offset
 #: of +1.7e-3 +- 3.9e-3 rad for a true -1.7e-3; six maneuvers -1.9e-3 +- 2.2e-4, forty
 #: A-4 maneuvers -1.74e-3 +- 5e-5).
@@ -634,7 +634,8 @@ def _reconstruct(task: Mapping, s: Mapping) -> dict:
     plan = observability_plan(present, estimate_vane_scale=s["estimate_vane_scale"],
                               estimate_vane_position=s["estimate_vane_position"],
                               positions_given=geo.get("vane_positions_given", ()),
-                              calibration_pass=bool(s.get("calibration_pass")))
+                              calibration_pass=bool(s.get("calibration_pass")),
+                              airspeed_pass=bool(s.get("airspeed_pass")))
     # the campaign's air-data calibration (from its GPS maneuvers) also serves the
     # maneuvers without GPS, which cannot observe it themselves
     calibration = {k: v for k, v in (task.get("calibration") or {}).items()
@@ -1649,7 +1650,8 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
                           ) -> tuple[dict, dict, dict, dict, list]:
     """Air-data errors shared by the campaign, from a first pass over the GPS maneuvers
     (over every maneuver with accelerometers when none has GPS: then the vane offsets and
-    the IMU biases, :func:`~simplexspline.aero.reconstruction.observability.observability_plan`).
+    the IMU biases, :func:`~simplexspline.aero.reconstruction.observability.observability_plan`,
+    and in a pass of its own the airspeed bias, :func:`_airspeed_without_gps`).
 
     Each maneuver's final estimate is a posterior of the same constant under the same
     prior; their combination counts the prior once, and an estimate too far from the
@@ -1761,6 +1763,12 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
                 excluded.setdefault(k, {}).update(lone[k])
                 continue
             out[k] = (c.value, c.sigma)
+        if not gps:
+            airspeed = _airspeed_without_gps(first, out, s, kept_share, workers, progress)
+            if airspeed is not None:
+                out["btas"], left_out = airspeed
+                if left_out:
+                    excluded["btas"] = left_out
     imu, imu_per_maneuver = {}, {}
     if settings.imu_calibration == "campaign":
         imu, imu_per_maneuver, imu_excluded = campaign_priors(estimates(IMU_STATES))
@@ -1768,6 +1776,35 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     winds = [(*r["wind"], r["maneuver"], r["altitude"]) for r in results
              if r["ok"] and r.get("wind")] if settings.wind_calibration == "campaign" else []
     return out, excluded, imu, imu_per_maneuver, winds
+
+
+def _airspeed_without_gps(tasks: list, offsets: Mapping, s: Mapping, kept_share: float,
+                          workers: _Workers, progress: bool) -> tuple | None:
+    """The airspeed bias of a campaign without GPS, from a pass with the vane offsets held
+    at the campaign's (``offsets``): ``((value, sigma), excluded)``, or None when the
+    campaign does not pin it (sigma above ``kept_share`` of the prior), every estimate
+    comes from maneuvers with gusts, or no vane offset was found.
+
+    A wrong airspeed turns the velocity through ``omega x V`` by the wrong amount, which the
+    vanes see, as they see an offset; estimated in the same pass, the alpha-vane offset
+    traded against it (a Cessna campaign: the offset 8 sigma off, 1e-3 rad, with the
+    airspeed bias right), so the bias is found given the offsets.
+    """
+    if not offsets:
+        return None
+    staged = [{**t, "calibration": dict(offsets)} for t in tasks]
+    results = _run_all(staged, {**s, "airspeed_pass": True}, workers, progress)
+    est = {"btas": [(*r["calibration"]["btas"], r["maneuver"]) for r in results
+                    if r["ok"] and "btas" in r["calibration"]]}
+    if not est["btas"]:
+        return None
+    combined, excluded = combine_campaign(est)
+    c = combined.get("btas")
+    gusty = {r["maneuver"] for r in results if r["ok"] and r.get("gusts", 0.0) > 0}
+    lone = lone_in_gusts(combined, gusty, ("btas",), est)
+    if c is None or c.sigma > kept_share * est["btas"][0][2] or "btas" in lone:
+        return None
+    return (c.value, c.sigma), excluded.get("btas", {})
 
 
 #: A straight maneuver takes the wind of the campaign's turns flown within this height [m]
