@@ -350,8 +350,10 @@ class ReconstructionSettings:
         rarely separates them. 'campaign' (default): a first pass estimates them in every
         maneuver with GPS, their information-weighted combination is the campaign's
         calibration (the sensors are the same in every maneuver), and the second pass holds
-        them there and estimates the wind per maneuver. 'maneuver': one pass, everything
-        per maneuver.
+        them there and estimates the wind per maneuver; without GPS anywhere the
+        campaign's passes estimate the vane offsets and then the airspeed bias through the
+        rotation terms (:mod:`~simplexspline.aero.reconstruction.observability`).
+        'maneuver': one pass, everything per maneuver (without GPS: held at zero).
     imu_calibration : {'campaign', 'maneuver'}
         The IMU's biases are the same in every maneuver of a campaign flown with one IMU,
         but not every maneuver observes them: without a heading channel a straight
@@ -1407,10 +1409,11 @@ class Reconstruction:
         if self.thrust == "included":
             flags.setdefault("CX", "includes thrust")
         if str(held.get("tas", "")).startswith("unobservable"):
-            flags["all"] = ("airspeed bias unobservable (no GPS) and held at zero: a bias b "
-                            "in V scales every coefficient by about 1 - 2 b / V (0.5 % per "
-                            "0.5 m/s at 200 m/s), alike in all maneuvers; give a known "
-                            "airspeed calibration or GPS")
+            flags["all"] = ("airspeed bias unobservable (no GPS, and the campaign's "
+                            "rotations did not pin it) and held at zero: a bias b in V "
+                            "scales every coefficient by about 1 - 2 b / V (0.5 % per 0.5 "
+                            "m/s at 200 m/s), alike in all maneuvers; give a known airspeed "
+                            "calibration, GPS, or more maneuvers with pitch and yaw rates")
         out["flags"] = flags
         return out
 
