@@ -75,9 +75,6 @@ GPS_VELOCITY = ("vn_gps", "ve_gps", "vd_gps")
 GPS_POSITION = ("x_gps", "y_gps", "z_gps")
 ACCELEROMETERS = ("ax", "ay", "az")
 _AIR_DATA_ERRORS = ("btas", "balpha", "bbeta")
-#: The vane offsets: without GPS observable over a campaign through omega x V (the
-#: airspeed bias too, in a pass of its own).
-_OFFSETS = ("balpha", "bbeta")
 _WIND = ("wind_n", "wind_e", "wind_d")
 
 #: Trimmed flight (:func:`trimmed`): body roll and yaw rates below this [rad/s] (0.5 deg/s),
@@ -181,8 +178,8 @@ def observability_plan(present: Mapping, *, estimate_vane_scale: bool = True,
             held[s] = why + (": held at the given wind_* columns" if present["wind_given"]
                              else ": held at zero (still air)")
         for s in _AIR_DATA_ERRORS:
-            if present["accelerometers"] and (s in _OFFSETS or s == "btas"):
-                if (calibration_pass and s in _OFFSETS) or (airspeed_pass and s == "btas"):
+            if present["accelerometers"]:
+                if airspeed_pass if s == "btas" else calibration_pass:
                     continue      # the campaign's rotations tell it (module docstring)
                 held[s] = (why + " but through the campaign's rotations, which did not "
                            "pin it: held at zero (the sensor's calibration error stays in "

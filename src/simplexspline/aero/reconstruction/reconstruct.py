@@ -90,10 +90,10 @@ VANE_STATES = {"alpha": ("balpha", "kalpha", "xalpha"), "beta": ("bbeta", "kbeta
 STRAIGHT_CALIBRATION_STATES = ("balpha", "kalpha", "xalpha")
 #: Without GPS the campaign's vane offsets and airspeed bias (observed through omega x V
 #: only) are kept when their combined sigma is at most this share of the prior's (0.001
-#: rad for the default 0.02, 0.1 m/s for the default 2 m/s), not half of it as with GPS: a weakly observed offset is a guess that can be
-#: worse than the sensor's own error (one f16 elevator pulse gave a sideslip-vane offset
-#: of +1.7e-3 +- 3.9e-3 rad for a true -1.7e-3; six maneuvers -1.9e-3 +- 2.2e-4, forty
-#: A-4 maneuvers -1.74e-3 +- 5e-5).
+#: rad for the default 0.02, 0.1 m/s for the default 2 m/s), not half of it as with GPS:
+#: a weakly observed offset is a guess that can be worse than the sensor's own error (one
+#: f16 elevator pulse gave a sideslip-vane offset of +1.7e-3 +- 3.9e-3 rad for a true
+#: -1.7e-3; six maneuvers -1.9e-3 +- 2.2e-4, forty A-4 maneuvers -1.74e-3 +- 5e-5).
 OFFSET_SHARE_WITHOUT_GPS = 0.05
 #: The campaign's wind starts a straight maneuver without a heading channel only when its
 #: sigma is at most this share of the crosswind sigma the priors give
@@ -1660,8 +1660,9 @@ def _campaign_calibration(tasks: list, settings: ReconstructionSettings, workers
     prior; their combination counts the prior once, and an estimate too far from the
     others' is left out, with every other estimate of that maneuver
     (:func:`~simplexspline.aero.reconstruction.campaign_calibration.combine_campaign`).
-    A state no maneuver estimates (an airspeed bias without GPS, no vane), or whose
-    combined sigma is above half its prior (the campaign barely observes it; without GPS
+    A state no maneuver of the pass estimates (the airspeed bias without GPS, which has a
+    pass of its own; a vane the record lacks), or whose combined sigma is above half its
+    prior (the campaign barely observes it; without GPS
     above :data:`OFFSET_SHARE_WITHOUT_GPS` of it), is left out: the second pass then holds
     it at zero when the maneuver has no GPS, or estimates it per maneuver.
     Without a heading channel only maneuvers that turn by at least
