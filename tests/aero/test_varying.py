@@ -399,6 +399,47 @@ def test_cross_validation_scores_only_the_chosen_held_out_samples(data):
     assert np.isclose(everything ** 2 * len(y), a ** 2 * n1 + b ** 2 * (len(y) - n1))
 
 
+def test_hold_keeps_the_coefficients_at_the_edge_and_the_terms_linear(model, data):
+    """``outside='hold'``: beyond the box the scheduling variables are clamped (every
+    coefficient keeps its edge value, and its derivative along them is 0) and the terms
+    stay linear in their multipliers, where clamping every input saturates them; inside the
+    box it is the default prediction; a model without multipliers clamps."""
+    x = data[list(model.variables)].to_numpy()[::1999][:8].copy()
+    lo, hi = np.asarray(model.scaling.lower), np.asarray(model.scaling.upper)
+    ia, ida = model.variables.index("alpha"), model.variables.index("da")
+    assert hi[ida] > 0
+    far = x.copy()
+    far[:, ia] = hi[ia] + 0.1
+    far[:, ida] = 2.0 * hi[ida]
+    edge = far.copy()
+    edge[:, ia] = hi[ia]
+    held = model.predict(far, outside="hold")
+    np.testing.assert_allclose(held, model.predict(edge, outside="extrapolate"), atol=1e-12)
+    half, zero = far.copy(), far.copy()
+    half[:, ida], zero[:, ida] = hi[ida], 0.0
+    p = [model.predict(v, outside="hold") for v in (zero, half, far)]
+    np.testing.assert_allclose(p[2] - p[1], p[1] - p[0], atol=1e-12)
+    assert np.abs(p[2] - p[1]).max() > 1e-4
+    assert np.abs(model.predict(far, outside="clamp") - held).max() > 1e-4
+    g = model.gradient(far, outside="hold")
+    np.testing.assert_array_equal(g[:, ia], 0.0)
+    np.testing.assert_allclose(g[:, ida], (p[2] - p[1]) / hi[ida], rtol=1e-8)
+    inside = x[model.in_box(x)]
+    assert len(inside)
+    np.testing.assert_array_equal(model.predict(inside, outside="hold"),
+                                  model.predict(inside))
+    np.testing.assert_array_equal(model.gradient(inside, outside="hold"),
+                                  model.gradient(inside))
+    with pytest.raises(InputError, match="outside must be one of .*'hold'"):
+        model.predict(x, outside="linear")
+    plain = fit_structure(Structure("Cl", ("alpha", "da"), 2, 1),
+                          {c: data[c].to_numpy() for c in ("alpha", "da")},
+                          data["Cl"].to_numpy())
+    two = far[:, [ia, ida]]
+    np.testing.assert_array_equal(plain.predict(two, outside="hold"),
+                                  plain.predict(two, outside="clamp"))
+
+
 def test_inside_marks_rows_that_predict_would_clamp(model, data):
     """``AeroModel.in_box``: every input (scheduling variable and multiplier column) within
     the identified range; exactly the rows whose prediction clamping leaves unchanged."""

@@ -28,13 +28,17 @@ from simplexspline.errors import InputError, ModelFileError
 from simplexspline.spline.space import SimplexSpline
 from simplexspline.spline.varying import VaryingCoefficientSpline
 from simplexspline.spline.formats.loading import load_spline
+from simplexspline.spline.geometry.outside import AERO_POLICIES
 
 __all__ = ["AERO_FORMAT", "AERO_VERSION", "AeroModel"]
 
 AERO_FORMAT = "simplexspline.aeromodel"
 AERO_VERSION = 1
 
-OUTSIDE = ("clamp", "nan", "extrapolate")
+#: Outside policies of :meth:`AeroModel.predict` and :meth:`AeroModel.gradient`: those of
+#: the project's aerodynamic models, and ``'hold'``, which holds a varying-coefficient
+#: model's coefficients at the box's edge and keeps its terms linear in their multipliers.
+OUTSIDE = (*AERO_POLICIES, "hold")
 
 
 @dataclass
@@ -132,15 +136,20 @@ class AeroModel:
             raise InputError(f"outside must be one of {OUTSIDE}, got {outside!r}")
         return "nan" if outside == "nan" else "extrapolate"
 
-    def split(self, x: np.ndarray, *, clip: bool = False):
+    def split(self, x: np.ndarray, *, clip: bool = False, hold: bool = False):
         """Physical inputs (N, len(variables)) -> the spline's arguments: scaled
         scheduling variables ``z`` (N, n) and, for varying-coefficient models, the scaled
         multipliers ``m`` (N, K) (None otherwise). ``clip`` clamps every input to the
-        identified range first."""
+        identified range first; ``hold`` clamps the scheduling variables only (the
+        multipliers are taken where the inputs are)."""
         if clip:
             x = np.clip(x, self.scaling.lower, self.scaling.upper)
         n = len(self.schedule)
-        z = self.schedule_scaling.transform(x[:, :n])
+        sched = x[:, :n]
+        if hold:
+            sched = np.clip(sched, np.asarray(self.scaling.lower[:n], dtype=float),
+                            np.asarray(self.scaling.upper[:n], dtype=float))
+        z = self.schedule_scaling.transform(sched)
         if not self.varying:
             return z, None
         m = multiplier_values(self.structure, x) - np.asarray(self.multiplier_offset)
@@ -171,9 +180,17 @@ class AeroModel:
         ----------
         data : DataFrame, mapping of column -> array, or array of shape (N, n)
             Inputs in physical units (SI, radians) named as ``variables``.
-        outside : {'clamp', 'nan', 'extrapolate'}
+        outside : {'clamp', 'nan', 'extrapolate', 'hold'}
             Inputs outside the identified box are clamped to it (like simulator tables,
             default), give NaN, or are evaluated with the nearest simplex's polynomial.
+            ``'hold'``: the scheduling variables are clamped to the box, so that every
+            coefficient (derivative) keeps its value at the box's edge, and the terms stay
+            linear in their multipliers where they are (``Cm_de(alpha) * de`` beyond the
+            identified alpha and elevator: ``Cm_de`` at the edge alpha times the elevator
+            flown); for a model without multipliers it is ``'clamp'``. The polynomial of
+            the edge simplex can turn anywhere beyond its data; a derivative held there
+            cannot (the left-out validation of :func:`~simplexspline.aero.identify.identify`
+            predicts a maneuver beyond the others so).
             Inside the box, points in a dropped (data-free) simplex use the nearest one
             unless ``outside='nan'``.
 
@@ -182,7 +199,7 @@ class AeroModel:
         ndarray, shape (N,)
         """
         policy = self._check_outside(outside)
-        z, m = self.split(self.inputs(data), clip=outside == "clamp")
+        z, m = self.split(self.inputs(data), clip=outside == "clamp", hold=outside == "hold")
         if m is None:
             return self.spline.predict(z, outside=policy)
         return self.spline.predict(z, m, outside=policy)
@@ -191,14 +208,24 @@ class AeroModel:
 
     def gradient(self, data, *, outside: str = "clamp") -> np.ndarray:
         """Exact partial derivatives with respect to the physical inputs, shape
-        (N, len(variables)) (e.g. Cm_alpha in 1/rad)."""
+        (N, len(variables)) (e.g. Cm_alpha in 1/rad); ``outside`` as in :meth:`predict`
+        (with ``'hold'`` the derivative along a scheduling variable beyond the box is 0:
+        the coefficients are held there)."""
         policy = self._check_outside(outside)
         x = self.inputs(data)
         if outside == "clamp":
             x = np.clip(x, self.scaling.lower, self.scaling.upper)
-        z, m = self.split(x)
         n = len(self.schedule)
-        jac = self.schedule_scaling.jacobian(x[:, :n])
+        z, m = self.split(x, hold=outside == "hold")
+        sched = x[:, :n]
+        if outside == "hold":
+            lo = np.asarray(self.scaling.lower[:n], dtype=float)
+            hi = np.asarray(self.scaling.upper[:n], dtype=float)
+            held = (sched < lo) | (sched > hi)
+            sched = np.clip(sched, lo, hi)
+        jac = self.schedule_scaling.jacobian(sched)
+        if outside == "hold":
+            jac = np.where(held, 0.0, jac)
         out = np.zeros((len(x), len(self.variables)))
         if m is None:
             out[:, :n] = self.spline.gradient(z, outside=policy) * jac
