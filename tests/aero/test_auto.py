@@ -29,7 +29,7 @@ from simplexspline.aero.selection.moves import (
     schedule_moves,
 )
 from simplexspline.aero.selection.search import SelectionSettings, Trial, _search, \
-    cv_score, fit_structure, in_training_box, select_structure
+    cv_score, fit_structure, in_training_box, screen_moves, select_structure
 from simplexspline.aero.variables import (
     CANDIDATE_VARIABLES,
     COEFFICIENTS,
@@ -272,6 +272,49 @@ def test_schedule_moves_promote_and_demote():
     t = Structure("Cm", ("alpha", "mach"), 3, 1, (2, 1), ("1", "qhat[alpha]"))
     assert "unschedule alpha" not in dict(schedule_moves(t, SelectionSettings(),
                                                           ["alpha", "mach"]))
+
+
+def test_moves_from_the_linear_start_keep_the_coefficients_continuous():
+    """From constant coefficients (degree 0, one cell) a refinement or a new scheduling
+    variable raises the degree to 1, C^0: a coefficient does not step at a cell boundary,
+    and 'schedule on beta', which drops the linear sideslip term, keeps a slope in beta.
+    Every move's structure is continuous; the degree-0 moves say so."""
+    start = linear_start(AUTO_PRESET["Cn"])
+    assert (start.degree, start.continuity, start.resolution) == (0, -1, (1,))
+    avail = ["alpha", "beta", "mach", "phat", "rhat", "da", "dr"]
+    moves = dict(neighbours(start, SelectionSettings(), avail))
+    on_beta = moves["schedule on beta, degree 0->1 (C^0)"]
+    assert on_beta.variables == ("alpha", "beta") and "beta" not in on_beta.multipliers
+    assert (on_beta.degree, on_beta.continuity, on_beta.resolution) == (1, 0, (1, 2))
+    refined = moves["refine alpha (1->2 cells), degree 0->1 (C^0)"]
+    assert (refined.degree, refined.continuity, refined.resolution) == (1, 0, (2,))
+    for move, cand in moves.items():
+        assert cand.degree >= 1 or int(np.prod(cand.resolution)) == 1, move
+    # fitted: linear in beta on a two-cell beta grid
+    d = _data(n_man=6, samples=300)
+    cols = {k: d[k] for k in ("alpha", "beta")}
+    y = 0.1 * d["beta"]
+    fit = fit_structure(on_beta.with_(multipliers=("1",)), cols, y)
+    assert np.max(np.abs(fit.predict(cols) - y)) < 1e-9
+    # raised in degree first (linear pieces that may jump), then refined: C^0 as well
+    jumpy = dict(neighbours(start.with_(degree=1), SelectionSettings(), avail))
+    assert jumpy["refine alpha (1->2 cells), C^0"].continuity == 0
+    # continuous structures' moves are as they were
+    lin = start.with_(degree=1, continuity=0)
+    assert "schedule on beta" in dict(neighbours(lin, SelectionSettings(), avail))
+
+
+def test_the_screen_ranks_the_schedule_moves_of_the_linear_start():
+    """The screen reads the new scheduling variable from the move's name, which from
+    degree 0 carries the note of the raised degree."""
+    d = _data(n_man=6, samples=300)
+    cols = {k: d[k] for k in ("alpha", "mach", "de", "qhat", "beta")}
+    start = linear_start(AUTO_PRESET["CX"])
+    moves = neighbours(start, SelectionSettings(), list(cols))
+    sched = [m for m, _ in moves if m.startswith("schedule on")]
+    assert len(sched) > 1 and all(m.endswith("degree 0->1 (C^0)") for m in sched)
+    kept = screen_moves(start, moves, cols, d["y"], SelectionSettings(screen=1))
+    assert sum(m.startswith("schedule on") for m, _ in kept) == 1
 
 
 def test_search_finds_an_elevator_kink_it_was_not_told_about():

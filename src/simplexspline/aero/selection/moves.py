@@ -109,7 +109,7 @@ def neighbours(s: Structure, settings, available: Sequence[str]):
                 out.append((f"remove {v}", s.with_(
                     variables=tuple(s.variables[j] for j in keep),
                     resolution=tuple(s.resolution[j] for j in keep))))
-    return out
+    return [(move + _continuous_note(cand), _continuous(cand)) for move, cand in out]
 
 
 def knot_moves(s: Structure, v: str) -> list:
@@ -165,6 +165,33 @@ def schedule_moves(s: Structure, settings, available: Sequence[str]) -> list:
                 variables=tuple(s.variables[j] for j in keep),
                 resolution=tuple(s.resolution[j] for j in keep), multipliers=mult)))
     return out
+
+
+def _continuous(s: Structure) -> Structure:
+    """``s`` with coefficients that stay continuous across its grid cells: a structure of
+    more than one cell and continuity -1 (constant or linear pieces that may jump: the
+    linear start, ``S^-1_0``, refined or scheduled, or raised in degree and then refined)
+    becomes C^0, of degree 1 at least; any other is returned as it is.
+
+    A refinement or a new scheduling variable at degree 0 gave a step in every
+    coefficient at the cells' boundary, and ``schedule on beta`` dropped the linear
+    sideslip term for it: on a six-test-point 737 course (`bench_whole_flight.py
+    --aircraft 737 --design eigenmotion --turns --maneuvers 6 --seed 24 --turbulence
+    none`, no maneuver list) the yawing moment became ``Cn(alpha, beta:2 | 1, phat, da)
+    S^-1_0``, constant on either side of beta's midpoint, and its left-out rudder
+    maneuver was predicted to R^2 -629. An aerodynamic coefficient does not jump with
+    the flight condition."""
+    if s.continuity < 0 and int(np.prod(s.resolution)) > 1:
+        return s.with_(degree=max(s.degree, 1), continuity=0)
+    return s
+
+
+def _continuous_note(s: Structure) -> str:
+    """The addition to a move's description when :func:`_continuous` changes its
+    structure: ', degree 0->1 (C^0)' or ', C^0'."""
+    if s.continuity >= 0 or int(np.prod(s.resolution)) <= 1:
+        return ""
+    return ", degree 0->1 (C^0)" if s.degree == 0 else ", C^0"
 
 
 def _names_variable(multiplier: str, v: str) -> bool:

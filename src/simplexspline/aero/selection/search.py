@@ -904,7 +904,7 @@ def screen_moves(best: Structure, moves: list, columns: Mapping, y: np.ndarray,
             continue
         gains = []
         for move, cand in items:
-            name = move[len(kind):]
+            name = move[len(kind):].split(", ")[0]   # without a note ('degree 0->1')
             if kind == "remove multiplier ":
                 gains.append(-share.get(name, 0.0))
                 continue
