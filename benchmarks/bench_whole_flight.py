@@ -232,6 +232,42 @@ def table(results: list, sim: dict) -> str:
     return "\n".join(lines)
 
 
+def fly_and_identify(aircraft: str, maneuvers: int, seed: int, turbulence: str,
+                     design: str, variants, *, keep: Path | None = None,
+                     installation_given: bool = False, turns: bool = False):
+    """Fly one sortie or course, write it as a real-format record (into ``keep`` if given)
+    and import and identify it per mapping variant: (results per variant, the
+    WholeFlight, the simulated frame, the true slopes, the flown maneuvers' spans, the
+    simulation's seconds)."""
+    t0 = time.perf_counter()
+    sensors = SensorModel.real_like()
+    if design == "eigenmotion":
+        plan = {"legs": course_legs(aircraft), "stationary_s": (60.0, 90.0),
+                "protocol": FlightProtocol.eigenmotion()}
+    else:
+        plan = {"protocol": FlightProtocol(mix={"3211": 2, "doublet": 1, "sum-of-sines": 1},
+                                           sos_duration_s=(30.0, 40.0))}
+    flight = WholeFlight(aircraft, maneuvers=maneuvers, seed=seed, sensors=sensors,
+                         wind=Wind((5.0, 12.0), turbulence), **plan)
+    df = flight.run()
+    t_sim = time.perf_counter() - t0
+    segments = df.attrs["flight"]["segments"]
+    truth = true_slopes(df, segments)   # the aerodynamic slopes: before the thrust
+    thrust_in_truth(df)    # the record has no thrust: the truth holds it as the data do
+    results = []
+    with tempfile.TemporaryDirectory() as tmp:
+        record = write_channel_record(df, keep or Path(tmp) / "record", rate_hz=10.0,
+                                      turns=turns)
+        if installation_given:
+            mapping = record / "mapping.toml"
+            mapping.write_text(mapping.read_text() + "\n" + installation(sensors, False))
+        spans = pd.read_csv(record / "maneuvers.csv")
+        flown = list(zip(spans["start"], spans["end"]))
+        for variant in variants:
+            results.append(run_variant(record, variant.strip(), flown, flight.legs, truth))
+    return results, flight, df, truth, flown, t_sim
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--aircraft", default="global5000")
@@ -254,32 +290,10 @@ def main() -> None:
                     "channel they observe the wind")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
-    t0 = time.perf_counter()
-    sensors = SensorModel.real_like()
-    if args.design == "eigenmotion":
-        design = {"legs": course_legs(args.aircraft), "stationary_s": (60.0, 90.0),
-                  "protocol": FlightProtocol.eigenmotion()}
-    else:
-        design = {"protocol": FlightProtocol(mix={"3211": 2, "doublet": 1, "sum-of-sines": 1},
-                                             sos_duration_s=(30.0, 40.0))}
-    flight = WholeFlight(args.aircraft, maneuvers=args.maneuvers, seed=args.seed,
-                         sensors=sensors, wind=Wind((5.0, 12.0), args.turbulence), **design)
-    df = flight.run()
-    t_sim = time.perf_counter() - t0
-    segments = df.attrs["flight"]["segments"]
-    truth = true_slopes(df, segments)   # the aerodynamic slopes: before the thrust
-    thrust_in_truth(df)    # the record has no thrust: the truth holds it as the data do
-    results = []
-    with tempfile.TemporaryDirectory() as tmp:
-        record = write_channel_record(df, args.keep or Path(tmp) / "record", rate_hz=10.0,
-                                      turns=args.turns)
-        if args.installation:
-            mapping = record / "mapping.toml"
-            mapping.write_text(mapping.read_text() + "\n" + installation(sensors, False))
-        spans = pd.read_csv(record / "maneuvers.csv")
-        flown = list(zip(spans["start"], spans["end"]))
-        for variant in args.variants.split(","):
-            results.append(run_variant(record, variant.strip(), flown, flight.legs, truth))
+    results, flight, df, truth, flown, t_sim = fly_and_identify(
+        args.aircraft, args.maneuvers, args.seed, args.turbulence, args.design,
+        args.variants.split(","), keep=args.keep, installation_given=args.installation,
+        turns=args.turns)
     print(f"whole flight ({args.design}): {args.aircraft}, {len(flown)} maneuvers flown "
           f"(stationary measurements included), seed {args.seed}, "
           f"{df.attrs['flight']['duration_s'] / 60:.1f} min airborne, legs "
