@@ -1,0 +1,85 @@
+"""Validation R^2 and error against the truth over many flight-test courses (issue 16).
+
+The check on a real Citation II record asks for a positive validation R^2 for every
+coefficient that ``identify`` models. This runs that rehearsal on a set of simulated
+flight-test courses (:func:`bench_whole_flight.fly_and_identify` with ``--design
+eigenmotion --turns``: stationary measurements at six airspeeds, eigenmotion inputs, turns;
+real-format 10 Hz records without a sideslip vane, heading or GPS velocities), five
+aircraft, 6 and 12 test points, still air and light turbulence, seeds that the defaults
+were not developed on, and both mapping variants (the maneuver list, and segments found
+by excitation). Prints one row per course and variant, and the totals: negative R^2,
+geometric mean of RMS vs truth / noise, CL_alpha and Cm_alpha at the reference condition
+against the simulator's.
+
+Usage::
+
+    python benchmarks/bench_courses.py                # the 14 courses of stop 47 (~12 min)
+    python benchmarks/bench_courses.py --courses "737 6 24 none; global5000 12 1 light"
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+
+import numpy as np
+
+from bench_whole_flight import COEF, fly_and_identify
+
+#: aircraft, test points, seed, turbulence
+COURSES = ("global5000 6 1 none; global5000 12 1 none; global5000 12 1 light; "
+           "global5000 12 21 light; global5000 6 22 light; 737 12 1 light; 737 12 3 none; "
+           "737 12 22 light; 737 6 24 none; c172p 12 5 light; c172p 6 5 none; "
+           "f16 12 24 light; A4 12 25 none; A4 12 26 light")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--courses", default=COURSES,
+                    help="';'-separated 'aircraft test-points seed turbulence'")
+    args = ap.parse_args()
+    warnings.simplefilter("ignore")
+    head = ("| course | variant | " + " | ".join(f"{c} R2 (true/noise)" for c in COEF)
+            + " | CL_alpha (truth) | Cm_alpha (truth) | s (course) |")
+    lines = [head, "|---" * (head.count("|") - 1) + "|"]
+    r2s, ratios = [], []
+    t_all = time.perf_counter()
+    for spec in args.courses.split(";"):
+        aircraft, points, seed, turbulence = spec.split()
+        t0 = time.perf_counter()
+        results, *_rest = fly_and_identify(aircraft, int(points), int(seed), turbulence,
+                                           "eigenmotion", ["excitation", "list"],
+                                           turns=True)
+        truth = _rest[2]
+        for r in results:
+            if "error" in r:
+                lines.append(f"| {spec.strip()} | {r['variant']} | {r['error']} |")
+                continue
+            cells = []
+            for c in COEF:
+                e = r["coef"].get(c)
+                if e is None:
+                    cells.append("-")
+                    continue
+                r2s.append(e["r2"])
+                ratios.append(e["rms_true_over_noise"])
+                cells.append(("**" if e["r2"] < 0 else "") + f"{e['r2']:.2f}"
+                             + ("**" if e["r2"] < 0 else "")
+                             + f" ({e['rms_true_over_noise']:.2f})")
+            cl = r.get("CL_alpha", [np.nan])[0]
+            cm = (r.get("Cm_alpha") or [np.nan])[0]
+            lines.append(f"| {spec.strip()} | {r['variant']} | " + " | ".join(cells)
+                         + f" | {cl:.2f} ({truth['CL_alpha']:.2f}) | {cm:.2f} "
+                         f"({truth['Cm_alpha']:.2f}) | {time.perf_counter() - t0:.0f} |")
+        print(lines[-1], flush=True)
+    print()
+    print("\n".join(lines))
+    r2s = np.asarray(r2s)
+    print(f"\n{len(r2s)} models: {int((r2s < 0).sum())} with a negative validation R^2; "
+          f"geometric mean of RMS vs truth / noise {np.exp(np.mean(np.log(ratios))):.3f}; "
+          f"{time.perf_counter() - t_all:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
