@@ -1210,6 +1210,9 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     held = model.provenance.get("held_terms")
     if held:
         notes.append(_held_note(c, held, model.structure.variables))
+    gaps = model.provenance.get("held_gaps")
+    if gaps:
+        notes.append(_gap_note(c, gaps))
     counts = np.asarray(model.provenance["counts"])
     thin = np.nonzero(counts < settings.thin_factor * best.ncoef_per_simplex)[0]
     if len(thin):
@@ -1290,6 +1293,20 @@ def _held_note(c: str, held: Mapping, variables) -> str:
     return (f"{c}: the data excite some terms only in part of the envelope; their "
             f"derivatives are held at their values there beyond it: {'; '.join(parts)} "
             "(model provenance 'held_terms'); fly those inputs at more test points to "
+            "measure them")
+
+
+def _gap_note(c: str, gaps: Mapping) -> str:
+    """The note on a model's terms interpolated across where the data do not excite them
+    between where they do (model provenance ``held_gaps``)."""
+    parts = []
+    for term, where in gaps.items():
+        ranges = ", ".join(f"{v} " + ", ".join(f"{lo:.4g}..{hi:.4g}" for lo, hi in runs)
+                           for v, runs in where.items())
+        parts.append(f"{term} ({ranges})")
+    return (f"{c}: some terms are not excited between the conditions where they are; their "
+            f"derivatives there are interpolated between those conditions: "
+            f"{'; '.join(parts)} (model provenance 'held_gaps'); fly those inputs there to "
             "measure them")
 
 

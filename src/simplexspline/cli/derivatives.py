@@ -317,6 +317,12 @@ def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) 
                               zip(model.schedule, box["lower"], box["upper"]))
             print(f"  {c}: the derivatives of its {term} term were measured only at {where};"
                   " beyond, they are held at their values there")
+        for term, gaps in (model.provenance.get("held_gaps") or {}).items():
+            where = "; ".join(f"{v} " + ", ".join(f"{_show(v, lo)}..{_show(v, hi)}"
+                                                  for lo, hi in runs)
+                              for v, runs in gaps.items())
+            print(f"  {c}: the derivatives of its {term} term were not measured at {where}, "
+                  "between conditions where they were; there they are interpolated")
         frac = float(np.mean(table[f"inside_{c}"]))
         if frac < 1:
             print(f"  {c}: {100 * (1 - frac):.0f} % of the conditions lie outside the "

@@ -28,7 +28,7 @@ from simplexspline.aero.modelling.notation import multiplier_factors
 from simplexspline.aero.modelling.structure import Structure
 
 __all__ = ["BINS", "HOLD_WEIGHT", "TERM_EXCITED", "excitation", "excited_boxes",
-           "hold_samples"]
+           "hold_samples", "hole_intervals"]
 
 #: A bin excites a term when the term's partial standard deviation there, or its sum of
 #: squares (:func:`excited_boxes`), is at least this share of its largest in any bin.
@@ -54,6 +54,9 @@ HOLD_WEIGHT = 10.0
 
 #: Scaled distance beyond a box's face from which a point counts as outside.
 _TOL = 1e-9
+
+#: The smallest share of a known bin that does not excite a term (0 marks excited bins).
+_TINY = 1e-12
 
 #: A box that reaches within this share of the data's range of every face of the data's
 #: box is the whole box (the excited samples' extremes lie a little inside the data's).
@@ -155,7 +158,9 @@ def excitation(structure: Structure, z: np.ndarray, m: np.ndarray) -> tuple:
                 continue
             level = np.maximum(part / top, info / info.max())
             on = known & (level >= TERM_EXCITED)
-            share[k, j] = np.where(known, np.where(on, 0.0, level), np.nan)
+            # 0 marks an excited bin; a known bin that is not keeps a positive share
+            share[k, j] = np.where(known, np.where(on, 0.0, np.maximum(level, _TINY)),
+                                   np.nan)
             # in an excited bin, the samples where the term moves (the bin's edge need
             # not be the excitation's)
             moves = on[bins] & (r >= TERM_EXCITED * part[bins])
@@ -170,8 +175,44 @@ def excitation(structure: Structure, z: np.ndarray, m: np.ndarray) -> tuple:
         whole = not hit[k] or (np.all(lo[k] <= lo_all + margin)
                                and np.all(hi[k] >= hi_all - margin))
         boxes.append(None if whole else (lo[k], hi[k]))
-        shares.append(None if whole else (lo_all, width, share[k]))
+        # a term excited throughout the box may still have holes inside it
+        shares.append((lo_all, width, share[k])
+                      if not whole or (hit[k] and _holes(share[k]).any()) else None)
     return boxes, shares
+
+
+def hole_intervals(shares: tuple | None) -> dict:
+    """The holes of one term's excitation (:func:`excitation`'s ``shares`` entry): per
+    scheduling variable index, the (lower, upper) ranges (scaled) of consecutive bins that
+    do not excite the term between bins that do. Empty when there are none."""
+    if shares is None:
+        return {}
+    base, width, share = shares
+    out = {}
+    step = width / BINS
+    for j, row in enumerate(_holes(share)):
+        runs, b = [], 0
+        while b < BINS:
+            if row[b]:
+                e = b
+                while e + 1 < BINS and row[e + 1]:
+                    e += 1
+                runs.append((float(base[j] + b * step[j]), float(base[j] + (e + 1) * step[j])))
+                b = e + 1
+            else:
+                b += 1
+        if runs:
+            out[j] = runs
+    return out
+
+
+def _holes(share: np.ndarray) -> np.ndarray:
+    """Per scheduling variable and bin (shape (n, BINS)): a bin that does not excite the
+    term (positive share) with excited bins (share 0) on both sides: a hole in its box."""
+    on = share == 0.0
+    left = np.maximum.accumulate(on, axis=1)
+    right = np.maximum.accumulate(on[:, ::-1], axis=1)[:, ::-1]
+    return (share > 0.0) & left & right
 
 
 def _bin_index(x: np.ndarray, base: float, width: float) -> np.ndarray:
@@ -246,28 +287,84 @@ def hold_samples(structure: Structure, triangulation, boxes: list, spline,
     K = structure.nterms
     zs, ms, ys, ws = [], [], [], []
     for k, box in enumerate(boxes):
-        if box is None:
+        share = None if shares is None else shares[k]
+        if box is None and share is None:
             continue
-        lo, hi = box
-        out = np.any((pts < lo - _TOL) | (pts > hi + _TOL), axis=1)
-        if not out.any():
-            continue
-        held = spline.term_values(np.clip(pts[out], lo, hi), outside="extrapolate")[:, k]
-        ok = np.isfinite(held)
-        zs.append(pts[out][ok])
-        unit = np.zeros((int(ok.sum()), K))
-        unit[:, k] = 1.0
-        ms.append(unit)
-        ys.append(held[ok])
-        w = np.ones(int(ok.sum()))
-        if shares is not None and shares[k] is not None:
-            w = _hold_weights(pts[out][ok], lo, hi, shares[k])
-        ws.append(w)
+        if box is None:          # excited throughout the data's box, but for holes
+            lo, hi = share[0], share[0] + share[1]
+            out = np.zeros(len(pts), dtype=bool)
+        else:
+            lo, hi = box
+            out = np.any((pts < lo - _TOL) | (pts > hi + _TOL), axis=1)
+        if out.any():
+            held = spline.term_values(np.clip(pts[out], lo, hi),
+                                      outside="extrapolate")[:, k]
+            ok = np.isfinite(held)
+            w = np.ones(int(ok.sum()))
+            if share is not None:
+                w = _hold_weights(pts[out][ok], lo, hi, share)
+            _append(zs, ms, ys, ws, pts[out][ok], k, K, held[ok], w)
+        if share is not None:
+            z, held, w = _across_holes(spline, k, np.clip(pts[~out], lo, hi), share)
+            _append(zs, ms, ys, ws, z, k, K, held, w)
     if not zs:
         return np.zeros((0, structure.ndim)), np.zeros((0, K)), np.zeros(0), np.zeros(0)
     z, m, y, w = np.vstack(zs), np.vstack(ms), np.concatenate(ys), np.concatenate(ws)
     keep = w > 0
     return z[keep], m[keep], y[keep], w[keep]
+
+
+def _append(zs: list, ms: list, ys: list, ws: list, z: np.ndarray, k: int, K: int,
+            y: np.ndarray, w: np.ndarray) -> None:
+    """Add virtual samples of term ``k`` (of ``K``) at ``z`` with values ``y``."""
+    if not len(y):
+        return
+    unit = np.zeros((len(y), K))
+    unit[:, k] = 1.0
+    zs.append(z)
+    ms.append(unit)
+    ys.append(y)
+    ws.append(w)
+
+
+def _across_holes(spline, k: int, pts: np.ndarray, shares: tuple) -> tuple:
+    """Virtual samples of term ``k`` at the points of ``pts`` (inside its box) that lie in
+    a hole of its excitation (:func:`_holes`) along some scheduling variable: the first
+    fit's coefficient interpolated linearly along that variable between the excited bins
+    on either side, as a table interpolates between the breakpoints where it was
+    measured; weighted ``1 - share / TERM_EXCITED`` by the hole's bin. Returns (z, y, w).
+    """
+    base, width, share = shares
+    holes = _holes(share)
+    z_out, y_out, w_out = [], [], []
+    taken = np.zeros(len(pts), dtype=bool)
+    for j in np.flatnonzero(holes.any(axis=1)):
+        b = _bin_index(pts[:, j], base[j], width[j])
+        here = holes[j][b] & ~taken
+        if not here.any():
+            continue
+        taken |= here
+        p, bb = pts[here], b[here]
+        on = np.flatnonzero(share[j] == 0.0)
+        left = on[np.searchsorted(on, bb) - 1]          # the excited bins either side
+        right = on[np.searchsorted(on, bb)]
+        step = width[j] / BINS
+        a, c = base[j] + (left + 1) * step, base[j] + right * step
+        ends = []
+        for edge in (a, c):
+            q = p.copy()
+            q[:, j] = edge
+            ends.append(spline.term_values(q, outside="extrapolate")[:, k])
+        t = np.clip((p[:, j] - a) / np.where(c > a, c - a, 1.0), 0.0, 1.0)
+        held = (1.0 - t) * ends[0] + t * ends[1]
+        ok = np.isfinite(held)
+        s = share[j][bb]
+        z_out.append(p[ok])
+        y_out.append(held[ok])
+        w_out.append((1.0 - np.minimum(s, TERM_EXCITED) / TERM_EXCITED)[ok])
+    if not z_out:
+        return np.zeros((0, pts.shape[1])), np.zeros(0), np.zeros(0)
+    return np.vstack(z_out), np.concatenate(y_out), np.concatenate(w_out)
 
 
 def _hold_weights(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray, shares: tuple) -> np.ndarray:

@@ -48,7 +48,8 @@ from simplexspline.aero.selection.moves import (
     kinked_variable,
     neighbours,
 )
-from simplexspline.aero.modelling.term_hold import HOLD_WEIGHT, excitation, hold_samples
+from simplexspline.aero.modelling.term_hold import (HOLD_WEIGHT, excitation, hold_samples,
+                                                    hole_intervals)
 from simplexspline.aero.modelling.prior import (
     PRIOR_DEGREES,
     PRIOR_WEIGHT,
@@ -423,6 +424,14 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
                 name: {"lower": sched.inverse(box[0][None])[0].tolist(),
                        "upper": sched.inverse(box[1][None])[0].tolist()}
                 for name, box in zip(structure.multipliers, boxes) if box is not None}
+            gaps = {name: {structure.variables[j]: [_physical(sched, j, r) for r in runs]
+                           for j, runs in hole_intervals(share).items()}
+                    for name, share in zip(structure.multipliers, shares)
+                    if hole_intervals(share)}
+            if gaps:
+                prov["held_gaps"] = gaps
+            if not prov["held_terms"]:
+                del prov["held_terms"]
     prov.update(samples=int(keep.sum()), dropped_samples=int((~keep).sum()),
                 counts=counts.tolist(), nbasis=structure.nbasis,
                 nsimplex=space.triangulation.nsimplex,
@@ -432,6 +441,13 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
         prov["smoothing"] = {"penalty": reg.penalty, "relative_weight": reg.smoothing,
                              "edf": reg.edf}
     return AeroModel(structure, scaling, spline, prov, *mscale)
+
+
+def _physical(scaling, j: int, interval: tuple) -> list:
+    """A scaled (lower, upper) range of scheduling variable ``j`` in its own units."""
+    u = np.zeros((2, len(scaling.lower)))
+    u[:, j] = interval
+    return scaling.inverse(u)[:, j].tolist()
 
 
 def _penalty(space) -> str:
