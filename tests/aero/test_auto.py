@@ -29,7 +29,8 @@ from simplexspline.aero.selection.moves import (
     schedule_moves,
 )
 from simplexspline.aero.selection.search import SelectionSettings, Trial, _search, \
-    cv_score, fit_structure, in_training_box, screen_moves, select_structure
+    cv_residuals, cv_score, fit_structure, in_training_box, screen_moves, select_structure, \
+    within_standard_errors
 from simplexspline.aero.variables import (
     CANDIDATE_VARIABLES,
     COEFFICIENTS,
@@ -255,6 +256,71 @@ def test_a_search_stuck_above_the_linear_model_restarts_from_it():
     best, history = select_structure(start, cols, y, d["man"],
                                      replace(still, linear_restart=False))
     assert best == start and [t.move for t in history] == ["start"]
+
+
+def test_the_simpler_structure_is_kept_where_the_cross_validation_cannot_tell():
+    """The one-standard-error rule. A truth linear in qhat and de plus a small curve in
+    alpha, a start quadratic in alpha, no moves: where the curve is small (0.3 % better
+    cross-validation for the start, within one standard error of the per-maneuver
+    differences) the linear model is returned; without the rule (parsimony 0) the
+    start stays; where the curve is large (the start 12 % better) the start stays with
+    it too."""
+    start = Structure("Cm", ("alpha",), 2, 1, (1,), ("1", "qhat", "de"))
+    still = SelectionSettings(moves=(), max_samples=20_000)
+    for amp, simple in ((0.05, True), (0.2, False)):
+        rng = np.random.default_rng(0)
+        d = _data(n_man=8, samples=400, seed=0)
+        cols = {k: d[k] for k in ("alpha", "mach", "de", "qhat", "beta")}
+        y = (0.02 - 1.5 * d["qhat"] + 0.2 * d["de"] + amp * (d["alpha"] - 0.09) ** 2
+             + 2e-3 * rng.standard_normal(len(d["man"])))
+        best, history = select_structure(start, cols, y, d["man"], still)
+        scores = {t.move: t.score for t in history}
+        assert scores["start"] < scores["linear start"]
+        assert (best == linear_start(start)) is simple
+        if simple:
+            assert [t.move for t in history if t.accepted] == ["linear start"]
+            best, _h = select_structure(start, cols, y, d["man"],
+                                        replace(still, parsimony=0.0))
+            assert best == start
+
+
+def test_within_standard_errors_judges_the_paired_maneuver_differences():
+    rng = np.random.default_rng(4)
+    groups = np.repeat(np.arange(6), 50)
+    held = np.ones(len(groups), dtype=bool)
+    best = rng.uniform(0.5, 1.5, len(groups)) * 1e-6
+    # the same errors, and errors larger by noise on some maneuvers, smaller on others
+    assert within_standard_errors(best, best, held, groups, 1.0)
+    jitter = best * (1 + 0.05 * rng.standard_normal(6)[groups])
+    assert within_standard_errors(jitter, best, held, groups, 1.0)
+    # worse on every maneuver, alike: beyond any number of standard errors
+    assert not within_standard_errors(1.5 * best, best, held, groups, 3.0)
+    for average in ("maneuver", "maneuver-rms"):
+        assert not within_standard_errors(1.5 * best, best, held, groups, 3.0, average)
+        assert within_standard_errors(best, best, held, groups, 1.0, average)
+    # two maneuvers scored: no standard error, only a lower score counts
+    two = held & (groups < 2)
+    assert not within_standard_errors(jitter, best, two, groups, 1.0)
+    # a fold without a prediction
+    broken = best.copy()
+    broken[3] = np.nan
+    assert not within_standard_errors(broken, best, held, groups, 1.0)
+    with pytest.raises(InputError, match="differ in length"):
+        within_standard_errors(best[:-1], best, held, groups, 1.0)
+
+
+def test_cv_residuals_make_the_cv_score():
+    d = _data(n_man=6, samples=300)
+    cols = {k: d[k] for k in ("alpha", "mach", "de", "qhat", "beta")}
+    s = Structure("Cm", ("alpha",), 2, 1, (2,), ("1", "qhat", "de"))
+    folds = d["man"] % 3
+    scored = d["alpha"] < 0.12
+    r2, held, ncoef, nsimplex = cv_residuals(s, cols, d["y"], folds, scored=scored)
+    np.testing.assert_array_equal(held, scored)
+    assert np.all(r2[~held] == 0) and np.all(r2[held] > 0)
+    rms, ncoef2, nsimplex2 = cv_score(s, cols, d["y"], folds, scored=scored)
+    assert rms == pytest.approx(np.sqrt(r2[held].mean()), rel=1e-12)
+    assert (ncoef, nsimplex) == (ncoef2, nsimplex2)
 
 
 def test_schedule_moves_promote_and_demote():
@@ -578,3 +644,9 @@ def test_training_box_is_judged_per_fold():
     # (max 1.0), fold 2's b = 9 above the others' 5
     np.testing.assert_array_equal(in_training_box({"a": a, "b": b}, folds),
                                   [False, True, True, False, True, False])
+
+
+@pytest.mark.parametrize("bad", [-1.0, float("nan"), float("inf")])
+def test_parsimony_must_be_a_number_of_standard_errors(bad):
+    with pytest.raises(InputError, match="parsimony must be a finite number"):
+        SelectionSettings(parsimony=bad)

@@ -66,8 +66,8 @@ from simplexspline.aero.selection.validation import covered_in_fold, fold_by_man
 from simplexspline.spline import kernels
 
 __all__ = ["MOVE_KINDS", "PLAIN_FIT", "SearchCache", "SelectionSettings", "Trial",
-           "choose_prior_degree", "cv_score", "cv_scored_share", "fit_structure",
-           "select_structure"]
+           "choose_prior_degree", "cv_residuals", "cv_score", "cv_scored_share",
+           "fit_structure", "select_structure", "within_standard_errors"]
 
 
 #: The kinds of moves of the structure search (:attr:`SelectionSettings.moves`).
@@ -204,6 +204,13 @@ class SelectionSettings:
         list) CY's search ended at a CV RMS of 1.25e-3 and 4.54x the noise, its linear
         model's search at 3.7e-4 and 0.36x. Costs one cross-validation where the search's
         result wins.
+    parsimony : float
+        The linear restart also runs, and its result is kept when it is no larger, when
+        its cross-validation error is within this many standard errors of the search's
+        result (:func:`within_standard_errors`, the one-standard-error rule; 0: only a
+        lower score counts). Where the cross-validation cannot tell two structures
+        apart, the simpler one is kept. See docs/identification.md ("A second start")
+        for the measured effect.
     joint_kinks : bool
         With the 'kinks' moves, also try every eligible term's kink at one breakpoint at
         once, each with a constant coefficient, the breakpoint per variable placed by
@@ -246,6 +253,7 @@ class SelectionSettings:
     hold_terms: bool = True
     place_kinks: bool = False
     linear_restart: bool = True
+    parsimony: float = 1.0
     joint_kinks: bool = False
 
     def __post_init__(self):
@@ -258,6 +266,9 @@ class SelectionSettings:
                              "one of the 91 breakpoints per variable would be "
                              "cross-validated in every round; set screen = 3 or "
                              "joint_kinks = false")
+        if not (np.isfinite(self.parsimony) and self.parsimony >= 0):
+            raise InputError(f"parsimony must be a finite number of standard errors >= 0 "
+                             f"(0: off), got {self.parsimony!r}")
         if self.cv_average not in CV_AVERAGES:
             raise InputError(f"cv_average must be one of {list(CV_AVERAGES)}, got "
                              f"{self.cv_average!r}")
@@ -504,6 +515,43 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
         The cross-validation RMS (pooled over samples or per maneuver, above).
     ncoefficients, nsimplex : int
     """
+    r2, held, ncoef, nsimplex = cv_residuals(structure, columns, y, folds, settings,
+                                             prior_degree=prior_degree, scored=scored,
+                                             coarse_cache=coarse_cache,
+                                             equations=equations)
+    per_maneuver = groups is not None and settings.cv_average != "sample"
+    if per_maneuver and held.any():
+        _ids, g_sse, g_n = _by_group(r2, held, groups)
+        mse = g_sse / g_n
+        if settings.cv_average == "maneuver":
+            floor = np.finfo(float).tiny
+            rms = float(np.sqrt(np.exp(np.mean(np.log(np.maximum(mse, floor))))))
+        else:                                   # 'maneuver-rms'
+            rms = float(np.mean(np.sqrt(mse)))
+    else:
+        sse = 0.0                     # fold by fold, as the folds were solved
+        for f in range(int(folds.max()) + 1):
+            sse += float(np.sum(r2[(folds == f) & held]))
+        rms = float(np.sqrt(sse / np.count_nonzero(held)))
+    return rms, ncoef, nsimplex
+
+
+def cv_residuals(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray,
+                 settings: SelectionSettings = PLAIN_FIT, *, prior_degree: int = 3,
+                 scored: np.ndarray | None = None, coarse_cache: dict | None = None,
+                 equations: FoldEquations | None = None) -> tuple:
+    """The held-out squared residuals of :func:`cv_score`'s cross-validation (same
+    arguments).
+
+    Returns
+    -------
+    r2 : ndarray, shape (N,)
+        Squared held-out residual per sample (0 where not scored; NaN where the fold's
+        model gave none).
+    scored : ndarray of bool, shape (N,)
+        The samples scored.
+    ncoefficients, nsimplex : int
+    """
     x = input_matrix(columns, structure.inputs)
     y = np.asarray(y, dtype=float)
     min_points, ridge, prior_weight = settings.min_points, settings.ridge, settings.prior_weight
@@ -527,15 +575,10 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
             cache[cs, ridge] = _coarse_fold_models(cs, input_matrix(columns, cs.inputs), y,
                                                    folds, k, min_points, ridge, equations)
         coarse_models = cache[cs, ridge]
-    sse = 0.0
+    out = np.zeros(len(y))
     scored = np.ones(len(y), dtype=bool) if scored is None else np.asarray(scored, bool)
     if not scored.any():
         scored = np.ones(len(y), dtype=bool)
-    per_maneuver = groups is not None and settings.cv_average != "sample"
-    if per_maneuver:
-        gid, ginv = np.unique(np.asarray(groups), return_inverse=True)
-        g_sse = np.zeros(len(gid))
-        g_n = np.zeros(len(gid))
     for f in range(k):
         held = (folds == f) & scored
         if not held.any():
@@ -546,21 +589,68 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
                                          coarse_models[f], prior_weight))
         spline = _solve(space, train, ridge, settings.smoothing)
         pred = evaluate(spline, u[held], None if m is None else m[held])
-        r2 = (y[held] - pred) ** 2
-        sse += float(np.sum(r2))
-        if per_maneuver:
-            np.add.at(g_sse, ginv[held], r2)
-            np.add.at(g_n, ginv[held], 1.0)
-    if per_maneuver and np.any(g_n > 0):
-        mse = g_sse[g_n > 0] / g_n[g_n > 0]
-        if settings.cv_average == "maneuver":
-            floor = np.finfo(float).tiny
-            rms = float(np.sqrt(np.exp(np.mean(np.log(np.maximum(mse, floor))))))
-        else:                                   # 'maneuver-rms'
-            rms = float(np.mean(np.sqrt(mse)))
-    else:
-        rms = float(np.sqrt(sse / np.count_nonzero(scored)))
-    return rms, int(space.dim_coefficients), int(tri.nsimplex)
+        out[held] = (y[held] - pred) ** 2
+    return out, scored, int(space.dim_coefficients), int(tri.nsimplex)
+
+
+def within_standard_errors(r2_simple: np.ndarray, r2_best: np.ndarray, held: np.ndarray,
+                           groups: np.ndarray, k: float, cv_average: str = "sample") -> bool:
+    """Whether a simpler structure's cross-validation error is within ``k`` standard
+    errors of a richer one's: the one-standard-error rule (Breiman et al. 1984; Hastie,
+    Tibshirani & Friedman, *The Elements of Statistical Learning*, 7.10), on the paired
+    per-maneuver differences of the held-out errors (the samples of one maneuver are
+    correlated; maneuvers are the independent units).
+
+    The difference per held-out maneuver is taken in the score's own terms
+    (:class:`SelectionSettings` ``cv_average``): its share of the pooled mean squared error
+    ('sample'), of the log mean squared error ('maneuver') or of the RMS ('maneuver-rms').
+    The simpler structure is as good when the mean difference (its excess) is at most
+    ``k`` times its standard error. With fewer than three scored maneuvers there is no
+    standard error and only a lower score counts (False).
+
+    Parameters
+    ----------
+    r2_simple, r2_best : ndarray, shape (N,)
+        Squared held-out residuals (:func:`cv_residuals`), NaN where a fold's model gave
+        none.
+    held : ndarray of bool, shape (N,)
+        The samples scored (the same for both: the same folds and mask).
+    groups : ndarray, shape (N,)
+        Maneuver id per sample (the folds hold out whole maneuvers).
+    k : float
+        Standard errors allowed (``SelectionSettings.parsimony``).
+    cv_average : str
+
+    Returns
+    -------
+    bool
+    """
+    if not (len(r2_simple) == len(r2_best) == len(held) == len(groups)):
+        raise InputError("within_standard_errors: the residuals, mask and groups differ "
+                         "in length")
+    if not (np.all(np.isfinite(r2_simple[held])) and np.all(np.isfinite(r2_best[held]))):
+        return False
+    _ids, s_sse, n = _by_group(r2_simple, held, groups)
+    _ids, b_sse, _n = _by_group(r2_best, held, groups)
+    if len(n) < 3:
+        return False
+    if cv_average == "maneuver":
+        floor = np.finfo(float).tiny
+        d = np.log(np.maximum(s_sse / n, floor)) - np.log(np.maximum(b_sse / n, floor))
+    elif cv_average == "maneuver-rms":
+        d = np.sqrt(s_sse / n) - np.sqrt(b_sse / n)
+    else:                   # each maneuver's share of the pooled mean squared error
+        d = (s_sse - b_sse) / n.sum() * len(n)
+    excess, se = float(np.mean(d)), float(np.std(d, ddof=1) / np.sqrt(len(d)))
+    return excess <= k * se
+
+
+def _by_group(r2: np.ndarray, held: np.ndarray, groups: np.ndarray) -> tuple:
+    """Per group (maneuver) with scored samples ``held``: (ids, sum of squared residuals,
+    count)."""
+    ids, inv = np.unique(np.asarray(groups)[held], return_inverse=True)
+    return (ids, np.bincount(inv, weights=r2[held], minlength=len(ids)),
+            np.bincount(inv, minlength=len(ids)).astype(float))
 
 
 def _coarse_fold_models(cs: Structure, x: np.ndarray, y: np.ndarray, folds: np.ndarray,
@@ -859,13 +949,29 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         if not settings.linear_restart or linear == start:
             return best, history
         first = [t.accepted for t in history]
-        if not score(linear, 0, "linear start") < found:
+
+        def as_good(simple: Structure, simple_score: float) -> bool:
+            """``simple`` cross-validates better than the search's result, or within
+            ``settings.parsimony`` standard errors of it (:func:`within_standard_errors`)."""
+            if simple_score < found:
+                return True
+            if not settings.parsimony or not np.isfinite(simple_score) or simple == best:
+                return False
+            with compute_slot():
+                r = [cv_residuals(x, cols, ys, folds, settings, prior_degree=prior_degree,
+                                  scored=scored, coarse_cache=cache.coarse,
+                                  equations=cache.equations)[:2] for x in (simple, best)]
+            return within_standard_errors(r[0][0], r[1][0], r[1][1], mans,
+                                          settings.parsimony, settings.cv_average)
+
+        if not as_good(linear, score(linear, 0, "linear start")):
             return best, history
         for t in history:                                 # accepted: the path to the result
             t.accepted = False
         again, again_score = _search(linear, settings, available, budget, score, ranges,
                                      kinks, joint, label="linear start")
-        if again_score < found:
+        if again_score < found or (again.size() <= best.size()
+                                   and as_good(again, again_score)):
             return again, history
         for t, a in zip(history, first + [False] * (len(history) - len(first))):
             t.accepted = a                                # the first search's result stays
