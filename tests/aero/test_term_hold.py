@@ -93,19 +93,8 @@ def test_terms_excited_throughout_are_fitted_as_before():
 def test_identify_says_which_derivatives_are_held(tmp_path, capsys):
     """identify names the held terms and the ranges where the data excite them; so does
     the derivatives command, from the model file."""
-    from simplexspline.aero.identify import IdentificationSettings, identify
-
-    from .synthetic import synthetic_table
-
-    rng = np.random.default_rng(3)
-    cols, y = _course(rng, n=4000, edge=0.5, noise=1e-3)
-    table = synthetic_table(10, 400)
-    for k, v in cols.items():
-        table[k] = v
-    table["Cl"] = y
-    res = identify(table, settings=IdentificationSettings(
-        coefficients=("Cl",), select=False, workers=1,
-        structures={"Cl": parse_structure("Cl(mach | 1, de, phat) S^1_3")}))
+    cols, y = _course(np.random.default_rng(3), n=4000, edge=0.5, noise=1e-3)
+    res = _identify_cl(cols, y, "Cl(mach | 1, de, phat) S^1_3")
     note = next(w for w in res.warnings if "held" in w)
     assert note.startswith("Cl: the data excite some terms only in part of the envelope")
     assert re.search(r"phat \(mach 0\.30\d*\.\.0\.(49|50)\d*\)", note)
@@ -117,6 +106,33 @@ def test_identify_says_which_derivatives_are_held(tmp_path, capsys):
                  "--alpha=0.05,0.1"]) == 0
     assert re.search(r"Cl: the derivatives of its phat term were measured only at mach "
                      r"0\.30\d*\.\.0\.(49|50)\d*; beyond, they are held", capsys.readouterr().out)
+
+
+def _identify_cl(cols: dict, y, structure: str):
+    """identify Cl alone on ten synthetic maneuvers of 400 samples carrying ``cols`` and
+    ``y`` (4000 samples), with the given structure, no search, one process."""
+    from simplexspline.aero.identify import IdentificationSettings, identify
+
+    from .synthetic import synthetic_table
+
+    table = synthetic_table(10, 400)
+    for k, v in cols.items():
+        table[k] = v
+    table["Cl"] = y
+    return identify(table, settings=IdentificationSettings(
+        coefficients=("Cl",), select=False, workers=1,
+        structures={"Cl": parse_structure(structure)}))
+
+
+def _gap_course(rng, n=6000):
+    """Mach 0.3-0.9 with the elevator moving throughout and rolls only below Mach 0.4 and
+    above 0.8 (a gap in the roll rate's excitation between)."""
+    mach = rng.uniform(0.3, 0.9, n)
+    de = 0.05 * rng.standard_normal(n)
+    phat = np.where((mach < 0.4) | (mach > 0.8), 0.02 * rng.standard_normal(n),
+                    1e-5 * rng.standard_normal(n))
+    y = 0.01 - 0.2 * de + _true_damping(mach) * phat + 1e-3 * rng.standard_normal(n)
+    return {"mach": mach, "de": de, "phat": phat}, y
 
 
 def _trim_course(rng, n_leg=800):
@@ -239,14 +255,7 @@ def test_a_derivative_is_interpolated_across_a_gap_in_its_excitation():
     mid = np.linspace(0.5, 0.7, 9)
     worst_held = worst_free = 0.0
     for seed in range(5):
-        rng = np.random.default_rng(seed)
-        n = 6000
-        mach = rng.uniform(0.3, 0.9, n)
-        de = 0.05 * rng.standard_normal(n)
-        rolls = (mach < 0.4) | (mach > 0.8)
-        phat = np.where(rolls, 0.02 * rng.standard_normal(n), 1e-5 * rng.standard_normal(n))
-        y = 0.01 - 0.2 * de + _true_damping(mach) * phat + 1e-3 * rng.standard_normal(n)
-        cols = {"mach": mach, "de": de, "phat": phat}
+        cols, y = _gap_course(np.random.default_rng(seed))
         held = fit_structure(s, cols, y, SelectionSettings())
         free = fit_structure(s, cols, y, replace(SelectionSettings(), hold_terms=False))
         assert "held_terms" not in held.provenance
@@ -274,24 +283,10 @@ def test_hole_intervals_are_the_unexcited_bins_between_excited_ones():
 def test_identify_and_derivatives_name_the_gaps(tmp_path, capsys):
     """A gap in a term's excitation is named by identify (a note and warning) and by the
     derivatives command, from the model file."""
-    from simplexspline.aero.identify import IdentificationSettings, identify
     from simplexspline.cli import main
 
-    from .synthetic import synthetic_table
-
-    rng = np.random.default_rng(1)
-    table = synthetic_table(10, 400)
-    n = len(table)
-    mach = rng.uniform(0.3, 0.9, n)
-    de = 0.05 * rng.standard_normal(n)
-    phat = np.where((mach < 0.4) | (mach > 0.8), 0.02 * rng.standard_normal(n),
-                    1e-5 * rng.standard_normal(n))
-    table["mach"], table["de"], table["phat"] = mach, de, phat
-    table["Cl"] = (0.01 - 0.2 * de + _true_damping(mach) * phat
-                   + 1e-3 * rng.standard_normal(n))
-    res = identify(table, settings=IdentificationSettings(
-        coefficients=("Cl",), select=False, workers=1,
-        structures={"Cl": parse_structure("Cl(mach:6 | 1, de, phat) S^1_3")}))
+    cols, y = _gap_course(np.random.default_rng(1), n=4000)
+    res = _identify_cl(cols, y, "Cl(mach:6 | 1, de, phat) S^1_3")
     note = next(w for w in res.warnings if "interpolated" in w)
     assert note.startswith("Cl: some terms are not excited between the conditions")
     assert re.search(r"phat \(mach 0\.4\d*\.\.0\.7\d*\)", note)
