@@ -189,18 +189,12 @@ def hole_intervals(shares: tuple | None) -> dict:
         return {}
     base, width, share = shares
     out = {}
-    step = width / BINS
     for j, row in enumerate(_holes(share)):
-        runs, b = [], 0
-        while b < BINS:
-            if row[b]:
-                e = b
-                while e + 1 < BINS and row[e + 1]:
-                    e += 1
-                runs.append((float(base[j] + b * step[j]), float(base[j] + (e + 1) * step[j])))
-                b = e + 1
-            else:
-                b += 1
+        # the starts and ends (exclusive) of the runs of hole bins
+        edges = np.flatnonzero(np.diff(np.r_[0, row.astype(np.int8), 0]))
+        step = width[j] / BINS
+        runs = [(float(base[j] + a * step), float(base[j] + e * step))
+                for a, e in zip(edges[::2], edges[1::2])]
         if runs:
             out[j] = runs
     return out

@@ -435,10 +435,11 @@ def fit_structure(structure: Structure, columns: Mapping, y: np.ndarray,
                 name: {"lower": sched.inverse(box[0][None])[0].tolist(),
                        "upper": sched.inverse(box[1][None])[0].tolist()}
                 for name, box in zip(structure.multipliers, boxes) if box is not None}
+            holes = {name: hole_intervals(share)
+                     for name, share in zip(structure.multipliers, shares)}
             gaps = {name: {structure.variables[j]: [_physical(sched, j, r) for r in runs]
-                           for j, runs in hole_intervals(share).items()}
-                    for name, share in zip(structure.multipliers, shares)
-                    if hole_intervals(share)}
+                           for j, runs in where.items()}
+                    for name, where in holes.items() if where}
             if gaps:
                 prov["held_gaps"] = gaps
             if not prov["held_terms"]:
