@@ -950,6 +950,16 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         if not settings.linear_restart or linear == start:
             return best, history
         first = [t.accepted for t in history]
+        residuals = {}                          # the search result's, computed once
+
+        def held_out(s: Structure) -> tuple:
+            if s not in residuals:
+                with compute_slot():
+                    residuals[s] = cv_residuals(s, cols, ys, folds, settings,
+                                                prior_degree=prior_degree, scored=scored,
+                                                coarse_cache=cache.coarse,
+                                                equations=cache.equations)[:2]
+            return residuals[s]
 
         def as_good(simple: Structure, simple_score: float) -> bool:
             """``simple`` cross-validates better than the search's result, or within
@@ -958,11 +968,8 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                 return True
             if not settings.parsimony or not np.isfinite(simple_score) or simple == best:
                 return False
-            with compute_slot():
-                r = [cv_residuals(x, cols, ys, folds, settings, prior_degree=prior_degree,
-                                  scored=scored, coarse_cache=cache.coarse,
-                                  equations=cache.equations)[:2] for x in (simple, best)]
-            return within_standard_errors(r[0][0], r[1][0], r[1][1], mans,
+            (r_simple, _s), (r_best, scored_best) = held_out(simple), held_out(best)
+            return within_standard_errors(r_simple, r_best, scored_best, mans,
                                           settings.parsimony, settings.cv_average)
 
         if not as_good(linear, score(linear, 0, "linear start")):
