@@ -597,6 +597,40 @@ def test_an_imported_record_without_the_imu_position_is_told_what_it_costs_cy():
     assert _imu_position_note(data.drop(columns="rdot"), IdentificationSettings(), meta) == ""
 
 
+def test_a_doublet_scored_only_in_its_trimmed_lead_in_counts_as_unscored():
+    """A doublet whose trimmed lead-in shares a cell with the other maneuvers and whose
+    response leaves it: half its samples are scored, almost none of its variation. By
+    variation it is untested, and the search starts linear (the Cessna course's one
+    elevator doublet: 15 % of samples, 0.2 % of the pitching moment's variation)."""
+    from simplexspline.aero.identify import _untested
+    from simplexspline.aero.selection.search import cv_scored_share
+
+    rng = np.random.default_rng(1)
+    man = np.repeat([0, 1, 2, 3], 60)
+    cells = np.zeros(240, dtype=int)
+    y = rng.normal(0.0, 1e-4, 240)
+    doublet = man == 3
+    response = np.flatnonzero(doublet)[30:]           # the second half moves
+    cells[response] = 5                               # ... and leaves the shared cell
+    y[response] += 5e-3 * np.sin(np.linspace(0.0, 2 * np.pi, 30))
+    cols = {"alpha": rng.normal(size=240)}
+    settings = SelectionSettings(folds=4)
+    by_samples = cv_scored_share(cols, y, man, settings, seed=0, cells=cells)
+    by_variation = cv_scored_share(cols, y, man, settings, seed=0, cells=cells,
+                                   by="variation")
+    assert by_samples[3] == pytest.approx(0.5)
+    assert by_variation[3] < 0.01
+    assert by_variation[0] == by_samples[0] == 1.0    # the others: all of them either way
+    assert _untested(y, man, by_samples) == []
+    assert _untested(y, man, by_variation) == [3]
+    # a constant coefficient: its samples' share
+    flat = cv_scored_share(cols, np.ones(240), man, settings, seed=0, cells=cells,
+                           by="variation")
+    assert flat[3] == pytest.approx(0.5)
+    with pytest.raises(InputError, match="by must be 'samples' or 'variation'"):
+        cv_scored_share(cols, y, man, settings, cells=cells, by="energy")
+
+
 def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named():
     """Three maneuvers, each alone in its envelope cells: the search's cross-validation
     scores none of them (cv_scored_share 0); the two that move the coefficient most are

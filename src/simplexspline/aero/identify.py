@@ -1028,7 +1028,8 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     if settings.select:
         # the maneuvers that move c, when the search's cross-validation can score none
         untested = _untested(y, mans, cv_scored_share(columns, y, mans, settings.selection,
-                                                      seed=settings.seed, cells=cells))
+                                                      seed=settings.seed, cells=cells,
+                                                      by="variation"))
         if untested:
             start = linear_start(start)
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
@@ -1051,7 +1052,7 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
 
 
 #: A maneuver counts as scored by the structure search's cross-validation when at least
-#: this share of its samples is (:func:`_unscored_note`).
+#: this share of its variation is (:func:`_untested`).
 SCORED_SHARE = 0.1
 
 
@@ -1059,8 +1060,9 @@ def _untested(y: np.ndarray, maneuvers: np.ndarray, shares: Mapping) -> list:
     """The maneuvers that excite the coefficient ``y`` (within-maneuver standard deviation
     at least ``EXCITED`` times the largest), most moving first, when the structure
     search's cross-validation scores none of them (``shares``:
-    :func:`~simplexspline.aero.selection.search.cv_scored_share`; scored means at least
-    ``SCORED_SHARE`` of a maneuver's samples); otherwise [].
+    :func:`~simplexspline.aero.selection.search.cv_scored_share` by variation; scored
+    means at least ``SCORED_SHARE`` of a maneuver's variation, not of its samples: a
+    doublet's trimmed lead-in can be scored where its response is not); otherwise [].
 
     The search cannot then tell the candidate structures apart where the coefficient
     moves. On a still-air course with one input per axis and test point, each rudder
