@@ -168,6 +168,39 @@ def test_folds_spread_conditions_and_score_covered_samples():
     assert 0.3 < scored.mean() < 1.0
 
 
+def test_folds_deal_the_maneuvers_that_move_the_coefficient_when_one_fold_took_all():
+    """Two of nine maneuvers move the coefficient (a pulse and a doublet four times its
+    size). Where the plain draw puts both into one fold, so that its training folds hold
+    neither, the folds are drawn again with them dealt to different folds; where the draw
+    already parts them, the folds are the plain ones."""
+    rng = np.random.default_rng(3)
+    sizes = np.full(9, 200)            # equal: the seed's shuffle orders the draw
+    man = np.repeat(np.arange(9), sizes)
+    y = rng.normal(0.0, 1e-4, len(man))
+    y[man == 2] += rng.normal(0.0, 1e-3, sizes[2])       # a pulse
+    y[man == 6] += rng.normal(0.0, 4e-3, sizes[6])       # a doublet
+    together = apart = None
+    for seed in range(40):
+        plain = fold_by_maneuver(man, 3, seed=seed)
+        same = plain[man == 2][0] == plain[man == 6][0]
+        if same and together is None:
+            together = seed
+        if not same and apart is None:
+            apart = seed
+    assert together is not None and apart is not None
+    dealt = fold_by_maneuver(man, 3, seed=together, excitation=y)
+    assert dealt[man == 2][0] != dealt[man == 6][0]
+    for m in range(9):
+        assert len(set(dealt[man == m])) == 1                 # whole maneuvers
+    assert set(np.unique(dealt)) == {0, 1, 2}
+    assert np.array_equal(fold_by_maneuver(man, 3, seed=apart, excitation=y),
+                          fold_by_maneuver(man, 3, seed=apart))
+    # a quiet coefficient (nothing moves it) leaves the plain draw
+    flat = np.full(len(man), 0.02)
+    assert np.array_equal(fold_by_maneuver(man, 3, seed=together, excitation=flat),
+                          fold_by_maneuver(man, 3, seed=together))
+
+
 def test_split_errors():
     with pytest.raises(InputError, match="at least two"):
         split_by_maneuver(np.zeros(10), 0.3)

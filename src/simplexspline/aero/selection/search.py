@@ -688,11 +688,12 @@ def _cv_setup(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
         return None
     if cells is not None:
         cel = np.asarray(cells)[::step]
-        folds = fold_by_maneuver(mans, k, seed=seed, conditions=_modal_cell(mans, cel))
+        folds = fold_by_maneuver(mans, k, seed=seed, conditions=_modal_cell(mans, cel),
+                                 excitation=ys)
         scored = covered_in_folds(cel, folds, int(cel.max()) + 1)
     else:
         cond = None if conditions is None else np.asarray(conditions)[::step]
-        folds = fold_by_maneuver(mans, k, seed=seed, conditions=cond)
+        folds = fold_by_maneuver(mans, k, seed=seed, conditions=cond, excitation=ys)
         scored = None if cond is None else covered_in_fold(folds, cond)
     if settings.cv_box:
         box = in_training_box(cols, folds)
