@@ -403,10 +403,10 @@ def fold_by_maneuver(maneuvers: np.ndarray, k: int, *, seed: int = 0,
                                                      return_inverse=True)[1]
     fold_of = _deal(order, counts, k, cond)
     if excitation is not None:
-        spread, level = maneuver_spread(maneuvers, len(ids),
-                                        np.asarray(excitation, dtype=float))
-        spread, level = spread[:, 0], float(level[0]) * FOLD_EXCITED / EXCITED
-        moving = np.flatnonzero(spread >= level) if np.isfinite(level) else []
+        spread = maneuver_spread(maneuvers, len(ids),
+                                 np.asarray(excitation, dtype=float))[0][:, 0]
+        top = float(spread.max())
+        moving = np.flatnonzero(spread >= FOLD_EXCITED * top) if top > 0 else []
         if len(moving) > 1 and len(np.unique(fold_of[moving])) == 1:
             first_dealt = moving[np.argsort(-spread[moving], kind="stable")]
             rest = order[~np.isin(order, first_dealt)]
