@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["undo_lag", "rotation_velocity", "specific_force_at_cg", "estimate_lag"]
+__all__ = ["undo_lag", "rotation_velocity", "specific_force_at_cg", "estimate_lag",
+           "estimate_lag_from_response"]
 
 
 def undo_lag(x: np.ndarray, dt: float, lag: float, *, hold: bool = False) -> np.ndarray:
@@ -153,3 +154,81 @@ def estimate_lag(residual: np.ndarray, rate_of_change: np.ndarray,
     dof = max(e.size - 1 - X.shape[1], 1)
     sigma = float(np.sqrt((res @ res) / dof * cov[0, 0]))
     return float(beta[0]), sigma
+
+
+def estimate_lag_from_response(channel: np.ndarray, response: np.ndarray,
+                               regressors: np.ndarray, dt: float, *,
+                               max_lag_s: float = 0.25) -> tuple[float, float]:
+    """Lag of a channel against a response that follows the sensed quantity at once.
+
+    In turbulence the reconstruction follows a late vane (the gusts are free to take its
+    delay), so :func:`estimate_lag` finds no lag there. The aerodynamic force does not
+    wait: the normal specific force responds to the air's angle of attack without delay,
+    and the accelerometers are the filter's time base. The lag is the shift ``tau`` that,
+    undone (:func:`undo_lag`), lets ``response ~ 1 + c x(t + tau) + d x(t + tau)^2 +
+    regressors`` explain the response best (least squares; a grid of a fifth of a sample,
+    refined by the parabola through the best three). Its standard error comes from the
+    curvature of the residual sum of squares, ``var = 2 s^2 / RSS''``, inflated by
+    ``(1 + rho) / (1 - rho)`` for the residuals' lag-one autocorrelation ``rho`` (the
+    gusts the model does not follow are coloured).
+
+    Parameters
+    ----------
+    channel : (n,) ndarray
+        The late channel (NaN where not measured), uniform spacing ``dt``.
+    response : (n,) ndarray
+        What follows the sensed quantity without delay (for the angle of attack: the
+        normal specific force over the dynamic pressure, ``a_z / (rho V^2)``).
+    regressors : (n, m) ndarray
+        Other effects on the response (for the normal force: ``q / V``, which also takes a
+        vane's rotation term ``q x / V``).
+    dt : float
+        Sample interval [s].
+    max_lag_s : float
+        Largest lag tried either way [s].
+
+    Returns
+    -------
+    lag, sigma : float
+        Lag [s] (positive: the channel is late) and its standard error; NaN when the
+        best shift lies at the edge of the range or the channel does not move enough.
+    """
+    x = np.asarray(channel, dtype=float)
+    y = np.asarray(response, dtype=float)
+    extra = np.asarray(regressors, dtype=float).reshape(x.size, -1)
+    step = dt / 5.0
+    taus = np.arange(-max_lag_s, max_lag_s + 0.5 * step, step)
+    edge = int(np.ceil(max_lag_s / dt)) + 2
+    keep = np.zeros(x.size, dtype=bool)
+    keep[edge:x.size - edge] = True
+    keep &= np.isfinite(y) & np.isfinite(extra).all(axis=1)
+    # either way: the ends, where a shift reaches beyond the record, are left out
+    shifted = [undo_lag(x, dt, float(t)) for t in taus]
+    for s_ in shifted:
+        keep &= np.isfinite(s_)
+    n = int(keep.sum())
+    if n < 20 + extra.shape[1]:
+        return float("nan"), float("nan")
+    rss = np.empty(taus.size)
+    for i, s_ in enumerate(shifted):
+        a = s_[keep]
+        A = np.column_stack([np.ones(n), a, a * a, extra[keep]])
+        coef, *_ = np.linalg.lstsq(A, y[keep], rcond=None)
+        r = y[keep] - A @ coef
+        rss[i] = float(r @ r)
+    i = int(np.argmin(rss))
+    if i == 0 or i == taus.size - 1 or not np.isfinite(rss[i]):
+        return float("nan"), float("nan")
+    r0, r1, r2 = rss[i - 1], rss[i], rss[i + 1]
+    curv = (r0 - 2 * r1 + r2) / step ** 2          # RSS''
+    if not curv > 0:
+        return float("nan"), float("nan")
+    lag = float(taus[i] + 0.5 * step * (r0 - r2) / (r0 - 2 * r1 + r2))
+    a = shifted[i][keep]
+    A = np.column_stack([np.ones(n), a, a * a, extra[keep]])
+    coef, *_ = np.linalg.lstsq(A, y[keep], rcond=None)
+    res = y[keep] - A @ coef
+    rho = float(np.clip(res[1:] @ res[:-1] / max(float(res @ res), 1e-300), 0.0, 0.95))
+    s2 = r1 / max(n - A.shape[1] - 1, 1)
+    sigma = float(np.sqrt(2.0 * s2 / curv * (1 + rho) / (1 - rho)))
+    return lag, sigma
