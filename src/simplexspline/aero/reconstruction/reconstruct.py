@@ -1058,8 +1058,8 @@ def _lags_against_forces(z: np.ndarray, acc: np.ndarray, rates: np.ndarray, V: n
     (that follows the late vane through the gusts, and finds no lag).
 
     On a 10 Hz Cessna 172 course in light turbulence (vane 0.05 s late, 4 m ahead of the
-    c.g., scale error 4 %) the per-maneuver estimates were 0.045-0.060 s, median 0.050;
-    on an F-16 sortie -0.05..+0.14, median 0.050 (its lift is not linear in alpha over a
+    c.g., scale error 4 %) the per-maneuver estimates were 0.045-0.060 s, 0.056 undone;
+    on an F-16 sortie -0.05..+0.14, 0.052 undone (its lift is not linear in alpha over a
     maneuver): the majority rule of :func:`significant_lags` takes the median. None
     where the force cannot tell (too few samples, the best shift at the range's edge)."""
     rho = task.get("rho")

@@ -209,13 +209,15 @@ def estimate_lag_from_response(channel: np.ndarray, response: np.ndarray,
     n = int(keep.sum())
     if n < 20 + extra.shape[1]:
         return float("nan"), float("nan")
-    rss = np.empty(taus.size)
+    rss, best = np.empty(taus.size), None
     for i, s_ in enumerate(shifted):
         a = s_[keep]
         A = np.column_stack([np.ones(n), a, a * a, extra[keep]])
         coef, *_ = np.linalg.lstsq(A, y[keep], rcond=None)
         r = y[keep] - A @ coef
         rss[i] = float(r @ r)
+        if best is None or rss[i] < float(best @ best):
+            best = r
     i = int(np.argmin(rss))
     if i == 0 or i == taus.size - 1 or not np.isfinite(rss[i]):
         return float("nan"), float("nan")
@@ -224,11 +226,7 @@ def estimate_lag_from_response(channel: np.ndarray, response: np.ndarray,
     if not curv > 0:
         return float("nan"), float("nan")
     lag = float(taus[i] + 0.5 * step * (r0 - r2) / (r0 - 2 * r1 + r2))
-    a = shifted[i][keep]
-    A = np.column_stack([np.ones(n), a, a * a, extra[keep]])
-    coef, *_ = np.linalg.lstsq(A, y[keep], rcond=None)
-    res = y[keep] - A @ coef
-    rho = float(np.clip(res[1:] @ res[:-1] / max(float(res @ res), 1e-300), 0.0, 0.95))
-    s2 = r1 / max(n - A.shape[1] - 1, 1)
+    rho = float(np.clip(best[1:] @ best[:-1] / max(r1, 1e-300), 0.0, 0.95))
+    s2 = r1 / max(n - 3 - extra.shape[1] - 1, 1)
     sigma = float(np.sqrt(2.0 * s2 / curv * (1 + rho) / (1 - rho)))
     return lag, sigma
