@@ -21,6 +21,7 @@ from simplexspline.aero.data.flight_data import (
     sensor_geometry,
     sidecar_path,
     validate_flight_data,
+    without_metadata,
     write_flight_data,
 )
 from simplexspline.errors import FlightDataError, InputError
@@ -85,6 +86,31 @@ def test_metadata_argument_overrides_attrs(tmp_path, rng):
     meta = {**df.attrs, "aircraft": "other"}
     _, back = read_flight_data(write_flight_data(df, tmp_path / "d.parquet", meta))
     assert back["aircraft"] == "other"
+
+
+class _CopyCounter:
+    """Metadata that count how often pandas deep-copies them."""
+
+    copies = 0
+
+    def __deepcopy__(self, memo):
+        type(self).copies += 1
+        return self
+
+
+def test_checks_and_writes_never_copy_the_metadata_per_column(tmp_path, rng):
+    # pandas deep-copies ``attrs`` into every column it hands out; a campaign's metadata
+    # made validating a 60-maneuver reconstruction spend seconds in copies
+    df = make_data(rng)
+    meta = dict(df.attrs)
+    df.attrs = {**meta, "probe": _CopyCounter()}
+    _CopyCounter.copies = 0
+    validate_flight_data(df, meta)
+    write_flight_data(df, tmp_path / "d.parquet", meta)
+    assert _CopyCounter.copies == 0
+    plain = without_metadata(df)
+    assert plain.attrs == {} and "probe" in df.attrs
+    assert np.shares_memory(plain["alpha"].to_numpy(), df["alpha"].to_numpy())
 
 
 @pytest.mark.parametrize("column", ["alpha", "Ixz", "maneuver", "t"])

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline.aero.data.angle_rates import ANGLE_RATE_NAMES, angle_rates
+from simplexspline.aero.data.flight_data import without_metadata
 from simplexspline.aero.data.thrust_coefficient import (
     FAN_SPEED_THRUST_COEFFICIENT,
     FUEL_FLOW_THRUST_COEFFICIENT,
@@ -566,8 +567,7 @@ def _identification_data(df, meta: dict, settings: IdentificationSettings,
     data, rec_note = _coefficient_data(df, meta, settings, progress, log)
     gusty = _gusts_without_vane(data.attrs.get("reconstruction")
                                 or meta.get("reconstruction") or {})
-    data = data.copy(deep=False)
-    data.attrs = {}
+    data = without_metadata(data)
     derived = {**angle_rates(data, meta), **thrust_coefficient(data, meta)}
     for name, values in derived.items():
         if name not in data.columns:        # derived candidates: alpha', beta' made

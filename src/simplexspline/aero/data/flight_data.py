@@ -42,6 +42,7 @@ __all__ = [
     "VaneCalibration",
     "present_columns",
     "sensor_geometry",
+    "without_metadata",
     "validate_flight_data",
     "read_flight_data",
     "write_flight_data",
@@ -245,6 +246,31 @@ class FlightDataReport:
         if self.empty_columns:
             s += f"; column(s) {self.empty_columns} entirely NaN (treated as absent)"
         return s
+
+
+def without_metadata(df):
+    """``df`` without its metadata: a new frame sharing the columns, with empty ``attrs``.
+
+    pandas deep-copies ``attrs`` into every column and frame it hands out (``df[name]``,
+    ``df.loc[...]``, ``df.copy()``). Flight-data metadata are nested lists that grow with
+    the maneuvers (a reconstructed 60-maneuver campaign's: ~10 ms per copy), and a check
+    or a reconstruction looks up hundreds of columns: validating that campaign took 4.5 s
+    of copies, for a check that reads each column once. The metadata travel separately.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+
+    Returns
+    -------
+    pandas.DataFrame
+        The same columns (no data copied), ``attrs == {}``.
+    """
+    import pandas as pd  # optional dependency (the 'aero' extra)
+
+    plain = pd.DataFrame(df, copy=False)
+    plain.attrs = {}
+    return plain
 
 
 def present_columns(df) -> list[str]:
@@ -499,6 +525,7 @@ def validate_flight_data(df, metadata: Mapping | None = None, *,
         _fail(f"flight data must be a pandas DataFrame, got {type(df).__name__}")
     metadata = df.attrs if metadata is None else metadata
     _check_metadata(metadata)
+    df = without_metadata(df)
     units = metadata.get("units", {})
     missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
     if missing:
@@ -621,13 +648,12 @@ def write_flight_data(df, path: str | os.PathLike, metadata: Mapping | None = No
         if name in FLIGHT_DATA_COLUMNS and FLIGHT_DATA_COLUMNS[name].unit:
             units.setdefault(name, FLIGHT_DATA_COLUMNS[name].unit)
     meta["units"] = units
-    validate_flight_data(df, meta, nan="ignore")
+    plain = without_metadata(df)
+    validate_flight_data(plain, meta, nan="ignore")
     if not path.parent.is_dir():
         raise InputError(f"cannot write {str(path)!r}: directory {str(path.parent)!r} "
                          "does not exist")
     encoded = {k: json.dumps(jsonable(v)) for k, v in meta.items()}
-    plain = pd.DataFrame(df, copy=False)
-    plain.attrs = {}
     if fmt == "parquet":
         import pyarrow as pa  # optional dependency (the 'aero' extra)
         import pyarrow.parquet as pq

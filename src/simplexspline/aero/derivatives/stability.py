@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simplexspline.aero.data.flight_data import without_metadata
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.variables import CANDIDATE_VARIABLES, COEFFICIENTS, UNITS
 from simplexspline.errors import InputError, ModelFileError, OutsideDomainError
@@ -302,9 +303,7 @@ def _conditions(models: Mapping, at, reference: Mapping | None):
     if not hasattr(at, "columns"):
         raise InputError("at must be a DataFrame of flight conditions, a mapping of grid "
                          f"values or None, got {type(at).__name__}")
-    cond = at.copy(deep=False)
-    cond.attrs = {}
-    return cond, ref
+    return without_metadata(at), ref
 
 
 # ---------------------------------------------------------------------------- derivatives

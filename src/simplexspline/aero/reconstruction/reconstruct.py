@@ -30,7 +30,7 @@ from simplexspline.aero.data.adaptive_smoothing import smooth_by_maneuver
 from simplexspline.aero.data.coefficients import THRUST_COLUMNS, aerodynamic_coefficients
 from simplexspline.aero.data.differentiation import SIMULATOR_STEP_MAX_S
 from simplexspline.aero.data.flight_data import (
-    present_columns, sensor_geometry, validate_flight_data,
+    present_columns, sensor_geometry, validate_flight_data, without_metadata,
 )
 from simplexspline.aero.data.whiteness import whiteness_band
 from simplexspline.aero.reconstruction import filter_kernels
@@ -1969,22 +1969,6 @@ def _positions_to_estimate(df, geometry: Mapping) -> bool:
                for vane, col in (("alpha_vane", "alpha"), ("beta_vane", "beta")))
 
 
-def _without_attrs(df):
-    """``df`` without its metadata (a shallow copy sharing the columns).
-
-    pandas deep-copies ``attrs`` into every column it hands out (``df[name]``): a
-    campaign's metadata are tens of kB of nested lists, growing with the maneuvers (0.4 ms
-    per copy with 12 maneuvers, 1.1 ms with 60), and a reconstruction looked up ~800
-    columns (1.8 s of a 12-maneuver reconstruction under cProfile). The metadata travel
-    separately (``meta``) and are set on the result.
-    """
-    import pandas as pd  # optional dependency (the 'aero' extra)
-
-    plain = pd.DataFrame(df, copy=False)
-    plain.attrs = {}
-    return plain
-
-
 def reconstruct(df, metadata: Mapping | None = None, *,
                 settings: ReconstructionSettings | None = None, workers: int | None = 1,
                 progress: bool = False, thrust_model=None) -> Reconstruction:
@@ -2026,7 +2010,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
     if not isinstance(settings, ReconstructionSettings):
         raise InputError("settings must be a ReconstructionSettings")
     meta = dict(df.attrs if metadata is None else metadata)
-    df = _without_attrs(df)
+    df = without_metadata(df)
     validate_flight_data(df, meta, nan="ignore")
     if workers is None:
         workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (

@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simplexspline.aero.data.flight_data import without_metadata
 from simplexspline.aero.report.derivative_section import _derivative_section
 from simplexspline.aero.report.figures import (
     _fig_diagnostics,
@@ -88,14 +89,6 @@ figure{margin:1em 0}figure img{max-width:100%;border:1px solid #eee}
 figcaption{font-size:.9em;color:#444}pre{background:#f6f6f8;padding:.6em;overflow-x:auto;
 font-size:.85em}details{margin:.4em 0}nav a{margin-right:.8em}code{background:#f3f3f6}
 """
-
-
-def _plain(df):
-    """A shallow copy of ``df`` without ``attrs``: pandas deep-copies ``attrs`` (which can
-    hold megabytes of flight-data metadata) on every column access."""
-    out = df.copy(deep=False)
-    out.attrs = {}
-    return out
 
 
 def _short_json(value, limit: int = 4000) -> str:
@@ -436,8 +429,8 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
         jobs.append((label, partial(fn, _Renderer, *args)))
         return _Pending(len(jobs) - 1)
 
-    ident = _plain(identification.identification)
-    valid = _plain(identification.validation)
+    ident = without_metadata(identification.identification)
+    valid = without_metadata(identification.validation)
     types = _maneuver_types(ident)
     blocks = _header_section(identification, ident, valid, types)
     blocks += _table_section(identification)
