@@ -19,7 +19,12 @@ Model types:
   by cross-validation over maneuvers (:func:`select_tensor_bspline`);
 * :class:`RBFModel`: :class:`scipy.interpolate.RBFInterpolator` (thin-plate spline) on a
   subsample, its smoothing chosen on held-out maneuvers (:func:`fit_rbf`);
-* :class:`MLPModel`: :class:`sklearn.neural_network.MLPRegressor` (:func:`fit_mlp`).
+* :class:`MLPModel`: :class:`sklearn.neural_network.MLPRegressor` (:func:`fit_mlp`);
+* :class:`MARSModel`: multivariate adaptive regression splines (Friedman 1991; the
+  ``py-earth2`` package, the compiled py-earth implementation), pairwise interactions, the
+  GCV penalty chosen by cross-validation over maneuvers (:func:`fit_mars`);
+* :class:`BoostedModel`: LightGBM (:func:`fit_lightgbm`) and the explainable boosting
+  machine of ``interpret`` (:func:`fit_ebm`).
 """
 
 from __future__ import annotations
@@ -42,7 +47,9 @@ __all__ = [
     "StepwiseResult",
     "TensorBSpline",
     "BoostedModel",
+    "MARSModel",
     "fit_ebm",
+    "fit_mars",
     "fit_lightgbm",
     "fit_mlp",
     "fit_rbf",
@@ -687,6 +694,114 @@ def fit_mlp(u: np.ndarray, y: np.ndarray, *, hidden=(64, 64), max_iter: int = 60
         warnings.simplefilter("ignore", ConvergenceWarning)
         reg.fit((u - x_mean) / x_std, (y - y_mean) / y_std)
     return MLPModel(reg, x_mean, x_std, y_mean, y_std, len(y))
+
+
+# ----------------------------------------------------------------------------- MARS
+@dataclass
+class MARSModel:
+    """Multivariate adaptive regression splines (Friedman 1991) on the unit-box inputs:
+    a sum of hinge functions ``max(0, +-(u_j - t))``, linear terms and their pairwise
+    products, with knots ``t`` placed by the forward pass where they lower the squared
+    error most and terms removed by the backward (GCV) pass.
+
+    Attributes
+    ----------
+    regressor : pyearth.Earth
+        The fitted model.
+    samples : int
+        Training samples used.
+    penalty : float
+        GCV cost per knot (Friedman's ``d``), chosen by cross-validation.
+    history : list of dict
+        ``{'penalty', 'cv_rms', 'terms'}`` per penalty tried.
+    """
+
+    regressor: object
+    samples: int
+    penalty: float
+    history: list = field(default_factory=list)
+
+    @property
+    def terms(self) -> int:
+        """Basis functions kept by the backward pass (the intercept included)."""
+        return int(sum(not b.is_pruned() for b in self.regressor.basis_))
+
+    @property
+    def nparams(self) -> int:
+        """Numbers needed to evaluate: per kept basis function its coefficient and per
+        factor the variable and knot (a linear factor: the variable)."""
+        n = 0
+        for b in self.regressor.basis_:
+            if b.is_pruned():
+                continue
+            n += 1
+            f = b
+            while f.get_parent() is not None:      # the factors, up to the intercept
+                n += 2 if f.has_knot() else 1
+                f = f.get_parent()
+        return n
+
+    def predict(self, u: np.ndarray) -> np.ndarray:
+        u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
+        return np.asarray(self.regressor.predict(u), dtype=float).ravel()
+
+    def save(self, path) -> Path:
+        """The model as the Python function py-earth exports (open text, never pickled),
+        written atomically."""
+        from pyearth.export import export_python_string
+
+        path = Path(path).with_suffix(".py")
+        text = export_python_string(self.regressor, function_name="model") + "\n"
+        return atomic_write(path, lambda tmp: Path(tmp).write_text(text))
+
+
+def _earth(penalty: float, max_terms: int, max_degree: int, thresh: float):
+    from pyearth import Earth
+
+    return Earth(max_degree=max_degree, max_terms=max_terms, penalty=penalty,
+                 thresh=thresh, use_fast=True)
+
+
+def fit_mars(u: np.ndarray, y: np.ndarray, folds: np.ndarray, *,
+             penalties=(3.0, 10.0, 30.0), max_samples: int = 20_000, max_terms: int = 60,
+             max_degree: int = 2, thresh: float = 1e-6, seed: int = 0) -> MARSModel:
+    """MARS with pairwise interactions (``max_degree=2``), on at most ``max_samples``
+    random samples.
+
+    The forward pass runs until ``max_terms`` basis functions or until a term improves
+    R^2 by less than ``thresh``: py-earth's default 1e-3 stops a fit of flight data, whose
+    coefficients are explained to R^2 > 0.99 by a few terms, long before the shape is
+    followed. The backward pass keeps the subset with the least generalised
+    cross-validation (GCV) score; GCV treats the samples as independent, and 100 Hz
+    samples are not, so its cost per knot (``penalty``) is chosen among ``penalties`` by
+    k-fold cross-validation over whole maneuvers (``folds``, as the other types are
+    tuned), and the model is fitted again on all the samples with the best.
+    """
+    import warnings
+
+    u = np.asarray(u, dtype=float)
+    y = np.asarray(y, dtype=float)
+    rng = np.random.default_rng(seed)
+    if len(y) > max_samples:
+        sel = np.sort(rng.choice(len(y), max_samples, replace=False))
+        u, y, folds = u[sel], y[sel], np.asarray(folds)[sel]
+    history = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")      # py-earth's own deprecation notices
+        for pen in penalties:
+            sse, n, terms = 0.0, 0, []
+            for f in np.unique(folds):
+                held = folds == f
+                m = _earth(pen, max_terms, max_degree, thresh).fit(u[~held], y[~held])
+                r = m.predict(u[held]).ravel() - y[held]
+                sse += float(r @ r)
+                n += int(held.sum())
+                terms.append(int(sum(not b.is_pruned() for b in m.basis_)))
+            history.append({"penalty": pen, "cv_rms": math.sqrt(sse / n),
+                            "terms": float(np.mean(terms))})
+        best = min(history, key=lambda h: h["cv_rms"])
+        reg = _earth(best["penalty"], max_terms, max_degree, thresh).fit(u, y)
+    return MARSModel(reg, len(y), best["penalty"], history)
 
 
 # ----------------------------------------------------------------------------- boosting

@@ -12,9 +12,11 @@ model type is then given the *same* full candidate variable set (every column of
 controls, alpha-dot and beta-dot, flap ...), trained on the same identification maneuvers
 and scored on the same validation samples (those inside the identification data's
 envelope, as ``identify`` scores them) against the true coefficients. Types:
-``spline-default``, ``stepwise-cv``, ``tensor``, ``rbf``, ``mlp``, ``lightgbm`` (early
-stopping on held-out maneuvers) and ``ebm`` (``interpret``'s explainable boosting machine),
-the last two from the ``compare`` extra (``pip install 'simplexspline[compare]'``).
+``spline-default``, ``stepwise-cv``, ``mars`` (multivariate adaptive regression splines,
+Friedman 1991, the classic adaptive-knot method: ``py-earth2``), ``tensor``, ``rbf``,
+``mlp``, ``lightgbm`` (early stopping on held-out maneuvers) and ``ebm`` (``interpret``'s
+explainable boosting machine); MARS and the last two come from the ``compare`` extra
+(``pip install 'simplexspline[compare]'``).
 
 ``--candidates paper`` (issue 7): on a simulated F-16 flight-test campaign (JSBSim, reconstructed by the IEKF + RTS smoother,
 exactly the data of ``simplexspline identify``), every coefficient CX..Cn is modelled from
@@ -139,9 +141,11 @@ def campaign(maneuvers: int, seed: int, data_dir: Path, workers: int, log=print)
 # ----------------------------------------------------------------------------- models
 MODEL_TYPES = ("spline", "spline-tuned", "stepwise-cv", "stepwise-F", "tensor", "rbf", "mlp")
 #: The model types of the full-candidate comparison (issue 19).
-FULL_TYPES = ("spline-default", "stepwise-cv", "tensor", "rbf", "mlp", "lightgbm", "ebm")
+FULL_TYPES = ("spline-default", "stepwise-cv", "mars", "tensor", "rbf", "mlp", "lightgbm",
+              "ebm")
 LABELS = {
     "spline-default": "simplex spline, knowledge-free defaults (`identify`)",
+    "mars": "MARS (py-earth), pairwise, GCV penalty by CV",
     "lightgbm": "LightGBM, early stopping",
     "ebm": "explainable boosting machine (interpret)",
     "spline": "simplex spline, paper preset",
@@ -263,6 +267,12 @@ def fit_baseline(kind: str, x: np.ndarray, y: np.ndarray, mans: np.ndarray,
         return Fitted(wrap(m), m.nparams, saver(m),
                       f"{m.samples:,} random training samples, {r.n_iter_} epochs"
                       f"{' (limit)' if r.n_iter_ >= args.mlp_epochs else ''}")
+    if kind == "mars":
+        m = B.fit_mars(u, y, folds, max_samples=args.mars_samples, seed=args.seed)
+        tried = ", ".join(f"{h['penalty']:g}: {h['cv_rms']:.2e}" for h in m.history)
+        return Fitted(wrap(m), m.nparams, m.save,
+                      f"{m.terms} basis functions, GCV penalty {m.penalty:g} (CV RMS by "
+                      f"penalty {tried}), {m.samples:,} random training samples")
     if kind == "lightgbm":
         m = B.fit_lightgbm(u, y, mans, seed=args.seed)
         return Fitted(wrap(m), m.nparams, m.save,
@@ -611,6 +621,7 @@ def run_full(args, kinds: list, coefs: list, log) -> str:
             _atomic_text(args.out, "\n".join(sections))
     total = time.perf_counter() - t_start
     import lightgbm
+    import pyearth
     head = [
         "# Model types compared on the full candidate set (issue 19)", "",
         f"Command: `python benchmarks/bench_compare.py {' '.join(args.argv)}`", "",
@@ -619,7 +630,7 @@ def run_full(args, kinds: list, coefs: list, log) -> str:
         f"one thread for the baselines. Total run time {total / 60:.1f} min.",
         f"- Versions: simplexspline {simplexspline.__version__}, numpy {np.__version__}, "
         f"scipy {scipy.__version__}, scikit-learn {sklearn.__version__}, lightgbm "
-        f"{lightgbm.__version__}, Python {sys.version.split()[0]}; "
+        f"{lightgbm.__version__}, py-earth2 {getattr(pyearth, '__version__', '?')}, Python {sys.version.split()[0]}; "
         f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.", ""]
     return "\n".join(head) + "\n" + "\n".join(sections)
 
@@ -647,6 +658,8 @@ def main(argv=None) -> int:
     ap.add_argument("--mlp-samples", type=int, default=100_000)
     ap.add_argument("--mlp-epochs", type=int, default=60)
     ap.add_argument("--ebm-samples", type=int, default=5_000)
+    ap.add_argument("--mars-samples", type=int, default=20_000,
+                    help="random training samples of MARS (20,000)")
     ap.add_argument("--candidates", choices=("full", "paper"), default="full",
                     help="full: every type on the full candidate set, several aircraft "
                          "(issue 19); paper: the paper preset's variables, F-16 (issue 7)")
