@@ -42,6 +42,7 @@ import numpy as np
 
 from simplexspline._files import jsonable, write_text
 from simplexspline.aero import identify
+from simplexspline.aero.config import load_config
 from simplexspline.aero.data.angle_rates import angle_rates
 from simplexspline.aero.selection.validation import PAPER_TABLE2
 from simplexspline.sim import Campaign, ConditionGrid, FlightProtocol, available_aircraft
@@ -112,18 +113,19 @@ def rms_at_true_inputs(result, c: str) -> float:
     return float(np.sqrt(np.mean(err ** 2)))
 
 
-def identify_variant(df, gps: bool) -> tuple[list[dict], float, list[str]]:
+def identify_variant(df, gps: bool, settings=None) -> tuple[list[dict], float, list[str]]:
     """Default identification with or without the GPS columns; rows, seconds, warnings.
 
     Besides identify's own score (the model at the reconstructed inputs against the true
     coefficient, ``rms_true``), each row has ``rms_true_inputs``: the model at the true
     inputs against the true coefficient, which leaves out the noise of the measured inputs
     (control-surface positions, flow angles) that a model evaluated on measured data
-    carries whatever its form."""
+    carries whatever its form. ``settings`` (optional): the identification's settings
+    (``--config``); the defaults otherwise."""
     data = df if gps else df.drop(columns=[c for c in GPS_COLUMNS if c in df.columns])
     data.attrs = df.attrs
     t0 = time.perf_counter()
-    result = identify(data)
+    result = identify(data, settings=settings)
     seconds = time.perf_counter() - t0
     rows = []
     for c, entry in result.summary()["coefficients"].items():
@@ -186,6 +188,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="simulation worker processes (2)")
     ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results"
                     / "generalization", help="directory of the JSON and Markdown tables")
+    ap.add_argument("--config", type=Path, default=None,
+                    help="identify's TOML config (docs/identification.md) to measure an "
+                         "option; the defaults otherwise (write to another --out)")
     args = ap.parse_args(argv)
     aircraft = (args.aircraft.split(",") if args.aircraft
                 else ["f16", "c172p"] if args.quick else ["f16", "global5000", "c172p", "A4", "737"])
@@ -201,6 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.seed == 0:
         ap.error("seed 0 is the development seed: choose another")
 
+    id_settings = None if args.config is None else load_config(args.config)
     rows, runs = [], []
     args.out.mkdir(parents=True, exist_ok=True)
     settings = {"aircraft": aircraft, "variants": variants, "maneuvers": maneuvers,
@@ -219,7 +225,7 @@ def main(argv: list[str] | None = None) -> int:
             s = df.attrs["summary"]
             for v in wanted:
                 gps = v.endswith("-gps")
-                coeff_rows, id_s, warnings = identify_variant(df, gps)
+                coeff_rows, id_s, warnings = identify_variant(df, gps, id_settings)
                 runs.append({"aircraft": a, "variant": v, "sim_s": sim_s, "identify_s": id_s,
                              "maneuvers_kept": s["maneuvers_kept"], "samples": s["samples"],
                              "warnings": warnings})

@@ -62,6 +62,7 @@ from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.varying import VaryingCoefficientSpace
 from simplexspline.aero.selection.coverage import covered_in_folds
 from simplexspline.aero.selection.fold_equations import FoldEquations, fold_equations
+from simplexspline.aero.selection.hinge_start import hinge_structures
 from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
 from simplexspline.spline import kernels
 
@@ -225,6 +226,16 @@ class SelectionSettings:
         constant-coefficient term is a whole spline term held constant by conditions,
         so every joint kink adds a term per multiplier), and the main job's Cm 0.68 ->
         1.40 times the noise. Off by default.
+    hinge_start : bool
+        After the search, cross-validate the structures of an adaptive-regression-spline
+        basis (:mod:`~simplexspline.aero.selection.hinge_start`: products of up to two
+        factors ``v`` or ``|v-k|`` with constant coefficients, found by a forward pass over
+        the data and pruned by GCV at a few costs per term) and take the best when it
+        beats the search's result by ``min_improvement``. The search adds one kink per
+        cross-validated move and never multiplies two; on the F-16 campaign of
+        ``bench_compare.py`` (split seed 101) its drag model ended at 3.54x the noise,
+        where MARS reached 0.2x through such products. Off by default (stop 54: measured
+        on that case only; see docs/identification.md).
     """
 
     candidates: tuple = CANDIDATE_VARIABLES
@@ -255,6 +266,7 @@ class SelectionSettings:
     linear_restart: bool = True
     parsimony: float = 1.0
     joint_kinks: bool = False
+    hinge_start: bool = False
 
     def __post_init__(self):
         unknown = sorted(set(self.moves) - set(MOVE_KINDS))
@@ -272,6 +284,9 @@ class SelectionSettings:
         if self.cv_average not in CV_AVERAGES:
             raise InputError(f"cv_average must be one of {list(CV_AVERAGES)}, got "
                              f"{self.cv_average!r}")
+        if not isinstance(self.hinge_start, bool):
+            raise InputError(f"hinge_start is on or off (true or false), got "
+                             f"{self.hinge_start!r}")
         for name in ("min_improvement", "asymmetry_improvement"):
             value = getattr(self, name)
             if not 0.0 <= value < 1.0:
@@ -963,7 +978,9 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
                 return place_kink(best, term, kinks[v], sse, limits=ranges.get(v))[0]
 
         score.place = place
-    with kernels.one_blas_thread():
+
+    def searched() -> tuple:
+        """The greedy search and, where it applies, the linear restart."""
         best, found = _search(start, settings, available, budget, score, ranges, kinks,
                               joint)
         history = score.history
@@ -1005,6 +1022,32 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         for t, a in zip(history, first + [False] * (len(history) - len(first))):
             t.accepted = a                                # the first search's result stays
         return best, history
+
+    with kernels.one_blas_thread():
+        best, history = searched()
+        if not settings.hinge_start:
+            return best, history
+        # the adaptive-regression-spline start (hinge_start): taken when its
+        # cross-validation beats the search's result by the move threshold
+        found = score(best, 0, "result")
+        try:
+            with compute_slot():
+                hinges = hinge_structures(start, cols, ys,
+                                          [v for v in available if v in settings.candidates])
+        except SimplexSplineError:
+            hinges = []
+        scored_h = [(score(h, 0, f"hinge start ({len(h.multipliers)} terms)"), h)
+                    for h in hinges]
+        scored_h = [(c, h) for c, h in scored_h if np.isfinite(c)]
+        if not scored_h:
+            return best, history
+        c, h = min(scored_h, key=lambda e: e[0])
+        if not c < found * (1.0 - settings.min_improvement):
+            return best, history
+        for t in history:
+            t.accepted = False
+        _accept(history, h, c)
+        return h, history
 
 
 #: Kinds of moves that :func:`screen_moves` ranks before any is cross-validated.

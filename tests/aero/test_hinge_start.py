@@ -1,0 +1,128 @@
+"""The adaptive-regression-spline start of the structure search (hinge_start)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from simplexspline.aero.modelling.notation import multiplier_parts
+from simplexspline.aero.modelling.structure import Structure
+from simplexspline.aero.selection.hinge_start import (
+    forward_hinges, hinge_structures, prune_path,
+)
+from simplexspline.aero.selection.search import (
+    SelectionSettings, fit_structure, select_structure,
+)
+from simplexspline.aero.variables import LATERAL_VARIABLES
+from simplexspline.errors import InputError
+
+
+def _maneuvers(n_man: int = 10, samples: int = 500, seed: int = 0) -> dict:
+    """Smooth random trajectories of alpha, de, mach, qhat and beta, maneuver by maneuver."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(samples) * 0.01
+    cols = {k: [] for k in ("alpha", "de", "mach", "qhat", "beta", "man")}
+    for m in range(n_man):
+        def wave(amp, centre=0.0):
+            f, ph = rng.uniform(0.2, 1.2, 3), rng.uniform(0, 2 * np.pi, 3)
+            return centre + amp * np.sin(2 * np.pi * f[:, None] * t + ph[:, None]).sum(0) / 3
+
+        for k, v in (("alpha", wave(0.15, rng.uniform(0.0, 0.25))), ("de", wave(0.15)),
+                     ("mach", np.clip(wave(0.05, rng.uniform(0.4, 0.7)), 0.3, 0.8)),
+                     ("qhat", wave(0.004)), ("beta", wave(0.08)),
+                     ("man", np.full(samples, m))):
+            cols[k].append(v)
+    return {k: np.concatenate(v) for k, v in cols.items()}
+
+
+def _table_truth(d: dict) -> np.ndarray:
+    """A database-like drag: slopes in alpha and in the elevator that change at
+    breakpoints, and an elevator kink whose size changes at an alpha breakpoint (a
+    product of two kinks), plus pitch damping."""
+    a, de = d["alpha"], d["de"]
+    return (0.02 + 0.3 * np.abs(a - 0.1) + 0.4 * np.abs(a - 0.1) * np.abs(de + 0.02)
+            + 0.1 * np.abs(de + 0.02) + 0.2 * a - 1.5 * d["qhat"])
+
+
+def test_the_forward_pass_finds_a_product_of_kinks_and_the_fit_follows_it():
+    d = _maneuvers()
+    truth = _table_truth(d)
+    y = truth + 1e-3 * np.random.default_rng(1).standard_normal(len(truth))
+    cols = {k: d[k] for k in ("alpha", "de", "mach", "qhat", "beta")}
+    terms = forward_hinges(cols, y, "CX", list(cols))
+    assert terms[0] == ()
+    products = [t for t in terms if len(t) == 2 and all(k is not None for _v, k in t)]
+    # a product of an alpha kink and an elevator kink near the truth's breakpoints
+    assert any({v for v, _k in t} == {"alpha", "de"}
+               and min(abs(k - 0.1) for v, k in t if v == "alpha") < 0.03
+               and min(abs(k + 0.02) for v, k in t if v == "de") < 0.03 for t in products)
+    start = Structure("CX", ("alpha", "mach"), 3, 1, (3, 1), ("1", "qhat", "de"))
+    structures = hinge_structures(start, cols, y, list(cols))
+    assert structures
+    for s in structures:
+        assert s.variables == ("alpha",) and s.degree == 0 and s.resolution == (1,)
+        assert s.multipliers[0] == "1"
+    fit = fit_structure(structures[0], cols, y)
+    assert np.sqrt(np.mean((fit.predict(cols) - truth) ** 2)) < 2e-3
+
+
+def test_the_pruning_path_removes_one_term_at_a_time_and_its_error_grows():
+    d = _maneuvers(n_man=6, samples=300)
+    y = _table_truth(d)
+    cols = {k: d[k] for k in ("alpha", "de", "qhat")}
+    terms = forward_hinges(cols, y, "CX", list(cols), max_terms=12)
+    path = prune_path(cols, y, terms)
+    sizes = [len(ts) for ts, _sse, _n in path]
+    assert sizes == list(range(len(terms), 0, -1))
+    sse = np.array([e for _ts, e, _n in path])
+    assert np.all(np.diff(sse) >= -1e-12 * sse.max())     # fewer terms, never less error
+    assert all(() in ts for ts, _e, _n in path)               # the intercept stays
+
+
+@pytest.mark.parametrize("coefficient, odd", [("Cl", True), ("Cm", False)])
+def test_terms_keep_the_coefficients_mirror_symmetry(coefficient, odd):
+    """Odd in the lateral variables for the lateral coefficients, even for the others;
+    a lateral variable's kink lies at 0 only."""
+    d = _maneuvers(n_man=6, samples=300)
+    cols = {k: d[k] for k in ("alpha", "de", "qhat", "beta")}
+    y = -0.1 * d["beta"] + 0.3 * np.abs(d["alpha"] - 0.1) * d["beta"] \
+        + 0.05 * np.abs(d["beta"]) * d["alpha"] + 0.01 * d["de"]
+    terms = forward_hinges(cols, y, coefficient, list(cols), max_terms=15)
+    assert len(terms) > 1
+    for t in terms[1:]:
+        plain_lateral = sum(1 for v, k in t if k is None and v in LATERAL_VARIABLES)
+        assert (plain_lateral % 2 == 1) is odd
+        assert all(k == 0.0 for v, k in t if v in LATERAL_VARIABLES and k is not None)
+
+
+def test_the_search_takes_the_hinge_start_where_it_cross_validates_better():
+    """A product of kinks that no single move of the search adds: with ``hinge_start``
+    the search returns the hinge structure (its trial accepted, the search's path not)
+    and it is closer to the truth; without it the search's own result stays."""
+    d = _maneuvers(n_man=10, samples=500, seed=4)
+    truth = _table_truth(d)
+    y = truth + 1e-3 * np.random.default_rng(5).standard_normal(len(truth))
+    cols = {k: d[k] for k in ("alpha", "de", "mach", "qhat", "beta")}
+    start = Structure("CX", ("alpha", "mach"), 3, 1, (3, 1), ("1", "qhat", "de"))
+    plain = SelectionSettings(max_rounds=2, max_samples=20_000)
+    best, history = select_structure(start, cols, y, d["man"], plain)
+    assert not any("hinge" in t.move for t in history)
+    best_h, history_h = select_structure(start, cols, y, d["man"],
+                                         replace(plain, hinge_start=True))
+    accepted = [t for t in history_h if t.accepted]
+    assert len(accepted) == 1 and accepted[0].move.startswith("hinge start")
+    assert best_h == accepted[0].structure and best_h.degree == 0
+    assert all(len(multiplier_parts(m)) <= 2 for m in best_h.multipliers)
+
+    def rms(s):
+        fit = fit_structure(s, cols, y)
+        return float(np.sqrt(np.mean((fit.predict(cols) - truth) ** 2)))
+
+    assert rms(best_h) < 0.7 * rms(best)
+
+
+def test_hinge_start_must_be_a_bool():
+    with pytest.raises(InputError, match="hinge_start is on or off"):
+        SelectionSettings(hinge_start="yes")
