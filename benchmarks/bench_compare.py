@@ -52,6 +52,7 @@ The reconstructed campaign is cached in ``--data`` (default
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import json
 import os
 import sys
@@ -534,6 +535,7 @@ def run_full(args, kinds: list, coefs: list, log) -> str:
 
     import simplexspline
     from simplexspline.aero import identify
+    from simplexspline.aero.config import load_config
     from simplexspline.aero.identify import IdentificationSettings
     from simplexspline.aero.modelling.structure import Scaling
     from simplexspline.aero.selection.validation import fold_by_maneuver
@@ -545,8 +547,10 @@ def run_full(args, kinds: list, coefs: list, log) -> str:
         df, meta, note = full_campaign(aircraft, args.maneuvers, args.seed, args.design,
                                        args.data or default_cache(), args.workers, log)
         t0 = time.perf_counter()
-        result = identify(df, meta, settings=IdentificationSettings(
-            coefficients=tuple(coefs), workers=args.workers, seed=args.seed))
+        base = IdentificationSettings(coefficients=tuple(coefs), workers=args.workers,
+                                      seed=args.seed)
+        result = identify(df, meta, settings=base if args.config is None
+                          else load_config(args.config, base))
         identify_s = time.perf_counter() - t0
         log(f"{aircraft}: default identification in {identify_s:.0f} s")
         ident, valid_all = result.identification, result.validation
@@ -620,8 +624,12 @@ def run_full(args, kinds: list, coefs: list, log) -> str:
         if args.out is not None:            # each aircraft's section as soon as it is done
             _atomic_text(args.out, "\n".join(sections))
     total = time.perf_counter() - t_start
-    import lightgbm
-    import pyearth
+    def version(dist: str) -> str:
+        try:
+            return importlib.metadata.version(dist)
+        except importlib.metadata.PackageNotFoundError:
+            return "not installed"
+
     head = [
         "# Model types compared on the full candidate set (issue 19)", "",
         f"Command: `python benchmarks/bench_compare.py {' '.join(args.argv)}`", "",
@@ -630,7 +638,8 @@ def run_full(args, kinds: list, coefs: list, log) -> str:
         f"one thread for the baselines. Total run time {total / 60:.1f} min.",
         f"- Versions: simplexspline {simplexspline.__version__}, numpy {np.__version__}, "
         f"scipy {scipy.__version__}, scikit-learn {sklearn.__version__}, lightgbm "
-        f"{lightgbm.__version__}, py-earth2 {getattr(pyearth, '__version__', '?')}, Python {sys.version.split()[0]}; "
+        f"{version('lightgbm')}, py-earth2 {version('py-earth2')}, Python "
+        f"{sys.version.split()[0]}; "
         f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.", ""]
     return "\n".join(head) + "\n" + "\n".join(sections)
 
@@ -667,6 +676,10 @@ def main(argv=None) -> int:
                     help="aircraft of the full comparison (%(default)s)")
     ap.add_argument("--design", choices=("paper", "alternative"), default="paper",
                     help="maneuver design of the full comparison's campaigns")
+    ap.add_argument("--config", type=Path, default=None,
+                    help="identify's TOML config (docs/identification.md) for the spline "
+                         "row of the full comparison instead of the defaults (to measure "
+                         "an option; the table's label stays spline-default)")
     ap.add_argument("--quick", action="store_true",
                     help="smoke run: 20 maneuvers, small RBF and MLP, no repeats")
     args = ap.parse_args(argv)

@@ -126,3 +126,71 @@ def test_the_search_takes_the_hinge_start_where_it_cross_validates_better():
 def test_hinge_start_must_be_a_bool():
     with pytest.raises(InputError, match="hinge_start is on or off"):
         SelectionSettings(hinge_start="yes")
+
+
+def test_the_hinge_start_must_beat_the_search_by_parsimony_standard_errors():
+    """The search's result stays unless the hinge structure's paired per-maneuver gain
+    exceeds ``parsimony`` standard errors: with a bound no gain reaches, the same data as
+    above keep the search's result; with ``parsimony=0`` only the threshold counts."""
+    d = _maneuvers(n_man=10, samples=500, seed=4)
+    y = _table_truth(d) + 1e-3 * np.random.default_rng(5).standard_normal(len(d["alpha"]))
+    cols = {k: d[k] for k in ("alpha", "de", "mach", "qhat", "beta")}
+    start = Structure("CX", ("alpha", "mach"), 3, 1, (3, 1), ("1", "qhat", "de"))
+    base = SelectionSettings(max_rounds=2, max_samples=20_000, hinge_start=True)
+    strict, history = select_structure(start, cols, y, d["man"],
+                                       replace(base, parsimony=1e6))
+    hinge_trials = [t for t in history if t.move.startswith("hinge start")]
+    assert hinge_trials and not any(t.accepted for t in hinge_trials)
+    assert not strict.multipliers == hinge_trials[0].structure.multipliers
+    loose, history0 = select_structure(start, cols, y, d["man"], replace(base, parsimony=0.0))
+    assert [t.move for t in history0 if t.accepted][0].startswith("hinge start")
+    assert loose.degree == 0
+
+
+def test_the_passes_run_inside_the_folds(monkeypatch):
+    """The hinge structures are scored honestly: the passes run once on all the search's
+    samples (the structure taken) and once per fold on the other folds' maneuvers only,
+    and every hinge trial records its cost and its score."""
+    import simplexspline.aero.selection.search as search
+    from simplexspline.aero.selection import hinge_start
+
+    calls = []
+
+    def spy(start, columns, y, variables, **kw):
+        calls.append(len(y))
+        return hinge_start.hinge_choices(start, columns, y, variables, **kw)
+
+    monkeypatch.setattr(search, "hinge_choices", spy)
+    d = _maneuvers(n_man=9, samples=300, seed=2)
+    y = _table_truth(d) + 1e-3 * np.random.default_rng(3).standard_normal(len(d["alpha"]))
+    cols = {k: d[k] for k in ("alpha", "de", "mach", "qhat")}
+    start = Structure("CX", ("alpha", "mach"), 3, 1, (3, 1), ("1", "qhat", "de"))
+    settings = SelectionSettings(max_rounds=1, folds=3, hinge_start=True)
+    _best, history = select_structure(start, cols, y, d["man"], settings)
+    n = len(y)
+    assert calls[0] == n and len(calls) == 1 + 3
+    assert all(0 < c < n for c in calls[1:]) and sum(calls[1:]) == 2 * n
+    trials = [t for t in history if t.move.startswith("hinge start")]
+    assert len(trials) == len(hinge_start.GCV_PENALTIES)
+    assert all("passes inside the folds" in t.move and np.isfinite(t.score) for t in trials)
+
+
+def test_a_hinge_basis_fitted_to_noise_is_not_taken():
+    """Where the start already holds the truth, the forward pass can only fit noise; the
+    noise of flight data is coloured (slow within a maneuver), which a basis chosen on
+    all the data fits far better in sample than held out. Scored with its passes inside
+    the folds it does not beat the search's result."""
+    d = _maneuvers(n_man=12, samples=400, seed=6)
+    truth = 0.02 + 0.3 * d["alpha"] + 0.1 * d["de"] - 1.5 * d["qhat"]
+    rng = np.random.default_rng(7)
+    t = np.arange(400) * 0.01
+    slow = np.concatenate([sum(rng.normal(0, 3e-3) * np.sin(2 * np.pi * rng.uniform(0.1, 0.6)
+                                                            * t + rng.uniform(0, 6.3))
+                               for _ in range(3)) for _m in range(12)])
+    y = truth + slow + 1e-3 * rng.standard_normal(len(truth))
+    cols = {k: d[k] for k in ("alpha", "de", "mach", "qhat", "beta")}
+    start = Structure("CX", ("alpha",), 1, 0, (1,), ("1", "qhat", "de"))
+    settings = SelectionSettings(max_rounds=2, hinge_start=True)
+    best, history = select_structure(start, cols, y, d["man"], settings)
+    assert any(t.move.startswith("hinge start") for t in history)
+    assert not any(t.accepted and t.move.startswith("hinge start") for t in history)

@@ -27,7 +27,9 @@ the current residual it explains (its correlation with the residual is exact, th
 being orthogonal to the basis), and a least-squares refit after each addition. The
 backward pass removes, one at a time, the term whose removal raises the squared error
 least; the generalised cross-validation (GCV) with a cost per term picks a size on that
-path, for a few costs, and the search's cross-validation by maneuver picks among them.
+path, for a few costs (:func:`hinge_choices`), and the search's cross-validation by
+maneuver picks among them. The passes see the data, so the search runs them again inside
+each fold, on the other folds' maneuvers, to score a cost honestly.
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ from simplexspline.aero.modelling.structure import Structure
 from simplexspline.aero.variables import LATERAL_COEFFICIENTS, LATERAL_VARIABLES
 
 __all__ = ["HINGE_QUANTILES", "GCV_PENALTIES", "forward_hinges", "prune_path",
-           "hinge_structures"]
+           "hinge_choices", "hinge_structures"]
 
 #: Candidate breakpoints of a longitudinal variable: these quantiles of its data.
 HINGE_QUANTILES = tuple(np.round(np.arange(0.025, 0.976, 0.025), 3))
@@ -77,6 +79,97 @@ def _values(term: tuple, cols: Mapping) -> np.ndarray:
 
 def _canonical(term: tuple) -> tuple:
     return tuple(sorted(term, key=lambda f: (f[0], -np.inf if f[1] is None else f[1])))
+
+
+class _Sorted:
+    """A column sorted once, for the prefix sums of :class:`_HingeSums`."""
+
+    def __init__(self, order: np.ndarray, xs: np.ndarray):
+        self.order, self.xs = order, xs
+
+    @classmethod
+    def of(cls, x: np.ndarray) -> "_Sorted":
+        order = np.argsort(x, kind="stable")
+        return cls(order, x[order])
+
+
+class _HingeSums:
+    """The candidates ``h_k = pv * |x - k|`` of one parent ``pv`` and column, for the knots
+    ``ks``, centred on their mean: :meth:`products` gives ``r . h_k`` and ``h_k . h_k``,
+    each shape (K,), in O(N + K) from prefix sums over the sorted column instead of O(N K)
+    from the N x K candidates (Friedman's fast update of the forward pass). ``|x - k|`` is
+    ``k - x`` below the knot and ``x - k`` above it, so every sum splits at the knot's
+    rank into prefix sums of ``w`` and ``w x``; ``h_k^2 = pv^2 (x - k)^2`` needs only
+    totals. What does not depend on ``r`` is computed once per parent and column."""
+
+    def __init__(self, col: _Sorted, pv: np.ndarray, ks: np.ndarray):
+        self.col, self.ks = col, ks
+        self.a = pv[col.order]
+        self.rank = np.searchsorted(col.xs, ks, side="left")     # samples below each knot
+        n = len(self.a)
+        self.s1 = self._split_sum(self.a)                        # sum_i h_k
+        a2 = self.a * self.a
+        x = col.xs
+        s2 = float(a2 @ (x * x)) - 2.0 * ks * float(a2 @ x) + ks * ks * float(a2.sum())
+        hh = s2 - self.s1 * self.s1 / n
+        self.hh = np.where(hh > 1e-12 * np.maximum(s2, 0.0), hh, 0.0)  # a constant's round-off
+
+    def _split_sum(self, w: np.ndarray) -> np.ndarray:
+        """sum_i w_i |x_i - k| for every knot (``w`` in sorted order)."""
+        x, p, ks = self.col.xs, self.rank, self.ks
+        cw = np.concatenate(([0.0], np.cumsum(w)))
+        cwx = np.concatenate(([0.0], np.cumsum(w * x)))
+        return ks * cw[p] - cwx[p] + (cwx[-1] - cwx[p]) - ks * (cw[-1] - cw[p])
+
+    def products(self, r: np.ndarray) -> tuple:
+        """(``r . h_k``, ``h_k . h_k``) with ``h_k`` centred, each shape (K,)."""
+        rh = self._split_sum(self.a * r[self.col.order]) - self.s1 / len(r) * float(r.sum())
+        return rh, self.hh
+
+
+def _offers(parent: tuple, v: str, knots: np.ndarray, want: int) -> tuple:
+    """What ``parent`` times a factor in ``v`` may add, of the coefficient's parity
+    ``want``: the plain product (or None), the kinked products and their knots."""
+    plain = _canonical((*parent, (v, None)))
+    cand = plain if (_parity(plain) == want and sum(
+        1 for f in plain if f[0] == v and f[1] is None) <= 1) else None
+    kinked = [(float(k), _canonical((*parent, (v, float(k))))) for k in knots]
+    kinked = [(k, t) for k, t in kinked if _parity(t) == want and (v, k) not in parent]
+    return cand, [t for _k, t in kinked], np.array([k for k, _t in kinked])
+
+
+def _best_exact(adds: list, cols: Mapping, Q: np.ndarray, resid: np.ndarray):
+    """Of the additions ``adds`` (tuples of one or two terms), the one whose columns,
+    orthogonalised against the basis ``Q``, explain most of ``resid``: (gain, add), the
+    first of equal ones; None without additions. One orthogonalisation of every distinct
+    column, then the projection on one or two columns in closed form."""
+    if not adds:
+        return None
+    unique = list(dict.fromkeys(t for add in adds for t in add))
+    index = {t: i for i, t in enumerate(unique)}
+    C = np.column_stack([_values(t, cols) for t in unique])
+    C = C - Q @ (Q.T @ C)
+    C = C - Q @ (Q.T @ C)                             # twice: Gram-Schmidt's round-off
+    G = C.T @ C
+    b = C.T @ resid
+    d = np.diag(G)
+    gains = []
+    for add in adds:
+        i = index[add[0]]
+        one = b[i] ** 2 / d[i] if d[i] > 0 else 0.0
+        if len(add) == 1:
+            gains.append(one)
+            continue
+        j = index[add[1]]
+        two = b[j] ** 2 / d[j] if d[j] > 0 else 0.0
+        det = d[i] * d[j] - G[i, j] ** 2
+        if det > 1e-10 * d[i] * d[j]:
+            gains.append(max((b[i] ** 2 * d[j] - 2 * b[i] * b[j] * G[i, j]
+                              + b[j] ** 2 * d[i]) / det, one, two))
+        else:                                          # the two span one direction
+            gains.append(max(one, two))
+    k = int(np.argmax(gains))
+    return float(gains[k]), adds[k]
 
 
 def forward_hinges(columns: Mapping, y: np.ndarray, coefficient: str,
@@ -116,10 +209,13 @@ def forward_hinges(columns: Mapping, y: np.ndarray, coefficient: str,
     ys = y[::step]
     want = 1 if coefficient in LATERAL_COEFFICIENTS else 0
     knots = {v: _breakpoints(cols[v], v) for v in variables}
+    orders = {v: _Sorted.of(cols[v]) for v in variables}
     terms: list = [()]
+    taken = {()}
     values = [np.ones(len(ys))]
     Q = values[0][:, None] / np.sqrt(len(ys))       # orthonormal basis of the terms
     resid = ys - ys.mean()
+    offers: dict = {}                                 # (parent, v) -> what it may add
     while len(terms) < max_terms:
         ss = float(resid @ resid)
         if not ss > 0:
@@ -131,44 +227,34 @@ def forward_hinges(columns: Mapping, y: np.ndarray, coefficient: str,
             if len(parent) >= max_degree:
                 continue
             for v in variables:
-                x = cols[v]
-                plain = _canonical((*parent, (v, None)))
-                cand = plain if (_parity(plain) == want and plain not in terms and sum(
-                    1 for f in plain if f[0] == v and f[1] is None) <= 1) else None
-                kinked = [(k, _canonical((*parent, (v, float(k))))) for k in knots[v]]
-                kinked = [(k, t) for k, t in kinked if _parity(t) == want and t not in terms
-                          and (v, float(k)) not in parent]
+                if (parent, v) not in offers:
+                    cand, kinked, ks = _offers(parent, v, knots[v], want)
+                    offers[parent, v] = (cand, kinked,
+                                         _HingeSums(orders[v], pv, ks) if kinked else None)
+                cand, kinked, sums = offers[parent, v]
+                if cand in taken:
+                    cand = None
+                free = np.array([t not in taken for t in kinked], dtype=bool)
                 if cand is not None:
-                    base = pv * x
+                    base = pv * cols[v]
                     base = base - base.mean()
                     bb = float(base @ base)
                     if bb > 0:
                         scored.append((float(resid @ base) ** 2 / bb, (cand,)))
-                if kinked:
-                    ks = np.array([k for k, _t in kinked])
-                    h = pv[:, None] * np.abs(x[:, None] - ks[None, :])
-                    h -= h.mean(axis=0)
-                    hh = np.einsum("ij,ij->j", h, h)
-                    gain = np.where(hh > 0, (resid @ h) ** 2 / np.where(hh > 0, hh, 1.0), 0.0)
-                    for j in np.argsort(gain)[::-1][:3]:
-                        pair = (kinked[j][1],) + ((cand,) if cand is not None else ())
+                if free.any():
+                    rh, hh = sums.products(resid)
+                    gain = np.where(free & (hh > 0), rh ** 2 / np.where(hh > 0, hh, 1.0), 0.0)
+                    for j in np.argsort(gain)[::-1][:min(3, int(free.sum()))]:
+                        pair = (kinked[j],) + ((cand,) if cand is not None else ())
                         scored.append((float(gain[j]), pair))
         if not scored:
             break
         scored.sort(key=lambda e: -e[0])
-        best = None
-        for _g, add in scored[:exact]:
-            C = np.column_stack([_values(t, cols) for t in add])
-            C = C - Q @ (Q.T @ C)
-            C = C - Q @ (Q.T @ C)                     # twice: Gram-Schmidt's round-off
-            coef, *_ = np.linalg.lstsq(C, resid, rcond=None)
-            g = float(resid @ (C @ coef))
-            if best is None or g > best[0]:
-                best = (g, add)
+        best = _best_exact([add for _g, add in scored[:exact]], cols, Q, resid)
         if best is None or best[0] < min_gain * ss:
             break
         for t in best[1]:
-            if t in terms or len(terms) >= max_terms:
+            if t in taken or len(terms) >= max_terms:
                 continue
             c = _values(t, cols)
             q = c - Q @ (Q.T @ c)
@@ -177,6 +263,7 @@ def forward_hinges(columns: Mapping, y: np.ndarray, coefficient: str,
             if nq <= 1e-10 * float(np.linalg.norm(c)):
                 continue                                  # no new direction
             terms.append(t)
+            taken.add(t)
             values.append(c)
             Q = np.column_stack([Q, q / nq])
         resid = ys - Q @ (Q.T @ ys)
@@ -229,19 +316,19 @@ def _term_text(term: tuple) -> str:
     return format_multiplier("*".join(parts))
 
 
-def hinge_structures(start: Structure, columns: Mapping, y: np.ndarray,
-                     variables: Sequence[str], *, penalties: Sequence[float] = GCV_PENALTIES,
-                     max_terms: int = 60) -> list[Structure]:
-    """Candidate structures from the forward and backward passes: one per distinct GCV
-    choice of the pruning path (``penalties``), each a structure of one cell of degree 0
-    over ``start``'s first scheduling variable whose terms are the chosen products, with
-    constant coefficients.
+def hinge_choices(start: Structure, columns: Mapping, y: np.ndarray,
+                  variables: Sequence[str], *, penalties: Sequence[float] = GCV_PENALTIES,
+                  max_terms: int = 60) -> dict:
+    """The structure each GCV cost chooses on the pruning path of the forward pass over
+    ``columns`` and ``y``: a structure of one cell of degree 0 over ``start``'s first
+    scheduling variable whose terms are the chosen products, with constant coefficients.
 
     Parameters
     ----------
     start : Structure
         The search's start (its coefficient and first scheduling variable).
     columns : mapping of str to ndarray, shape (N,)
+        The data the passes see (physical units).
     y : ndarray, shape (N,)
     variables : sequence of str
         Columns the terms may use.
@@ -251,21 +338,30 @@ def hinge_structures(start: Structure, columns: Mapping, y: np.ndarray,
 
     Returns
     -------
-    list of Structure
-        Distinct, in the order of ``penalties``; empty when the forward pass adds nothing.
+    dict of float to Structure
+        Cost -> structure (two costs may choose the same); empty when the forward pass adds
+        nothing.
     """
     terms = forward_hinges(columns, y, start.coefficient, variables, max_terms=max_terms)
     if len(terms) < 2:
-        return []
+        return {}
     path = prune_path(columns, y, terms)
-    out = []
+    out = {}
     for pen in penalties:
         chosen = _gcv_choice(path, pen)
         mults = tuple(dict.fromkeys(_term_text(t) for t in chosen))
         if "1" not in mults:
             mults = ("1", *mults)
-        s = Structure(start.coefficient, (start.variables[0],), degree=0, continuity=-1,
-                      resolution=(1,), multipliers=mults)
-        if s not in out:
-            out.append(s)
+        out[pen] = Structure(start.coefficient, (start.variables[0],), degree=0,
+                             continuity=-1, resolution=(1,), multipliers=mults)
     return out
+
+
+def hinge_structures(start: Structure, columns: Mapping, y: np.ndarray,
+                     variables: Sequence[str], *, penalties: Sequence[float] = GCV_PENALTIES,
+                     max_terms: int = 60) -> list[Structure]:
+    """The distinct structures of :func:`hinge_choices` (same arguments), in the order of
+    ``penalties``."""
+    return list(dict.fromkeys(hinge_choices(start, columns, y, variables,
+                                            penalties=penalties,
+                                            max_terms=max_terms).values()))

@@ -62,7 +62,7 @@ from simplexspline.errors import InputError, SimplexSplineError
 from simplexspline.spline.varying import VaryingCoefficientSpace
 from simplexspline.aero.selection.coverage import covered_in_folds
 from simplexspline.aero.selection.fold_equations import FoldEquations, fold_equations
-from simplexspline.aero.selection.hinge_start import hinge_structures
+from simplexspline.aero.selection.hinge_start import hinge_choices
 from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
 from simplexspline.spline import kernels
 
@@ -231,7 +231,12 @@ class SelectionSettings:
         basis (:mod:`~simplexspline.aero.selection.hinge_start`: products of up to two
         factors ``v`` or ``|v-k|`` with constant coefficients, found by a forward pass over
         the data and pruned by GCV at a few costs per term) and take the best when it
-        beats the search's result by ``min_improvement``. The search adds one kink per
+        beats the search's result by ``min_improvement`` and by ``parsimony`` standard
+        errors. The passes choose the terms and breakpoints from the data, so they run
+        inside the folds: each fold's held-out maneuvers are predicted by the structure
+        that the passes chose on the other folds (the structure taken is the passes' on
+        all the data), else the cross-validation would score a choice made with the
+        held-out maneuvers' own noise. The search adds one kink per
         cross-validated move and never multiplies two; on the F-16 campaign of
         ``bench_compare.py`` (split seed 101) its drag model ended at 3.54x the noise,
         where MARS reached 0.2x through such products. Off by default (stop 54: measured
@@ -535,21 +540,25 @@ def cv_score(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.nd
                                              prior_degree=prior_degree, scored=scored,
                                              coarse_cache=coarse_cache,
                                              equations=equations)
+    return _pooled_rms(r2, held, folds, groups, settings), ncoef, nsimplex
+
+
+def _pooled_rms(r2: np.ndarray, held: np.ndarray, folds: np.ndarray,
+                groups: np.ndarray | None, settings: SelectionSettings) -> float:
+    """:func:`cv_score`'s figure from squared held-out residuals ``r2`` and the scored
+    samples ``held`` (all shape (N,))."""
     per_maneuver = groups is not None and settings.cv_average != "sample"
     if per_maneuver and held.any():
         _ids, g_sse, g_n = _by_group(r2, held, groups)
         mse = g_sse / g_n
         if settings.cv_average == "maneuver":
             floor = np.finfo(float).tiny
-            rms = float(np.sqrt(np.exp(np.mean(np.log(np.maximum(mse, floor))))))
-        else:                                   # 'maneuver-rms'
-            rms = float(np.mean(np.sqrt(mse)))
-    else:
-        sse = 0.0                     # fold by fold, as the folds were solved
-        for f in range(int(folds.max()) + 1):
-            sse += float(np.sum(r2[(folds == f) & held]))
-        rms = float(np.sqrt(sse / np.count_nonzero(held)))
-    return rms, ncoef, nsimplex
+            return float(np.sqrt(np.exp(np.mean(np.log(np.maximum(mse, floor))))))
+        return float(np.mean(np.sqrt(mse)))     # 'maneuver-rms'
+    sse = 0.0                     # fold by fold, as the folds were solved
+    for f in range(int(folds.max()) + 1):
+        sse += float(np.sum(r2[(folds == f) & held]))
+    return float(np.sqrt(sse / np.count_nonzero(held)))
 
 
 def cv_residuals(structure: Structure, columns: Mapping, y: np.ndarray, folds: np.ndarray,
@@ -979,6 +988,18 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
 
         score.place = place
 
+    residuals: dict = {}                        # held-out residuals, computed once each
+
+    def held_out(s: Structure) -> tuple:
+        """Squared held-out residuals of ``s`` and the samples scored (:func:`cv_residuals`)."""
+        if s not in residuals:
+            with compute_slot():
+                residuals[s] = cv_residuals(s, cols, ys, folds, settings,
+                                            prior_degree=prior_degree, scored=scored,
+                                            coarse_cache=cache.coarse,
+                                            equations=cache.equations)[:2]
+        return residuals[s]
+
     def searched() -> tuple:
         """The greedy search and, where it applies, the linear restart."""
         best, found = _search(start, settings, available, budget, score, ranges, kinks,
@@ -988,16 +1009,6 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         if not settings.linear_restart or linear == start:
             return best, history
         first = [t.accepted for t in history]
-        residuals = {}                          # the search result's, computed once
-
-        def held_out(s: Structure) -> tuple:
-            if s not in residuals:
-                with compute_slot():
-                    residuals[s] = cv_residuals(s, cols, ys, folds, settings,
-                                                prior_degree=prior_degree, scored=scored,
-                                                coarse_cache=cache.coarse,
-                                                equations=cache.equations)[:2]
-            return residuals[s]
 
         def as_good(simple: Structure, simple_score: float) -> bool:
             """``simple`` cross-validates better than the search's result, or within
@@ -1027,23 +1038,53 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
         best, history = searched()
         if not settings.hinge_start:
             return best, history
-        # the adaptive-regression-spline start (hinge_start): taken when its
-        # cross-validation beats the search's result by the move threshold
+        # the adaptive-regression-spline start (hinge_start), cross-validated with its
+        # passes inside the folds: taken when it beats the search's result by the move
+        # threshold and by ``parsimony`` standard errors
         found = score(best, 0, "result")
+        variables = [v for v in available if v in settings.candidates]
         try:
             with compute_slot():
-                hinges = hinge_structures(start, cols, ys,
-                                          [v for v in available if v in settings.candidates])
+                final = hinge_choices(start, cols, ys, variables)
+                per_fold = [hinge_choices(start, {v: cols[v][folds != f] for v in variables},
+                                          ys[folds != f], variables)
+                            for f in range(int(folds.max()) + 1)]
         except SimplexSplineError:
-            hinges = []
-        scored_h = [(score(h, 0, f"hinge start ({len(h.multipliers)} terms)"), h)
-                    for h in hinges]
-        scored_h = [(c, h) for c, h in scored_h if np.isfinite(c)]
-        if not scored_h:
             return best, history
-        c, h = min(scored_h, key=lambda e: e[0])
+        if not final or not all(per_fold):
+            return best, history
+        chosen = None
+        for pen, h in final.items():
+            t0 = time.perf_counter()
+            r2 = np.zeros(len(ys))
+            held = np.zeros(len(ys), dtype=bool)
+            for f, choices in enumerate(per_fold):
+                part = folds == f
+                try:
+                    rf, hf = held_out(choices[pen])
+                except SimplexSplineError:
+                    rf, hf = np.full(len(ys), np.nan), part
+                r2[part], held[part] = rf[part], hf[part]
+            c = (_pooled_rms(r2, held, folds, mans, settings)
+                 if held.any() and np.all(np.isfinite(r2[held])) else float("inf"))
+            trial = Trial(h, c, 0, f"hinge start (GCV cost {pen:g}, {len(h.multipliers)} "
+                                   "terms; its passes inside the folds)",
+                          seconds=time.perf_counter() - t0)
+            history.append(trial)
+            if progress is not None:
+                progress(f"{h.label()}: {c:.4g}")
+            if np.isfinite(c) and (chosen is None or c < chosen[0]):
+                chosen = (c, h, r2, held)
+        if chosen is None:
+            return best, history
+        c, h, r2_h, held_h = chosen
         if not c < found * (1.0 - settings.min_improvement):
             return best, history
+        if settings.parsimony:
+            r_best, s_best = held_out(best)
+            if within_standard_errors(r_best, r2_h, s_best & held_h, mans,
+                                      settings.parsimony, settings.cv_average):
+                return best, history
         for t in history:
             t.accepted = False
         _accept(history, h, c)
