@@ -106,7 +106,7 @@ def test_the_search_takes_the_hinge_start_where_it_cross_validates_better():
     y = truth + 1e-3 * np.random.default_rng(5).standard_normal(len(truth))
     cols = {k: d[k] for k in ("alpha", "de", "mach", "qhat", "beta")}
     start = Structure("CX", ("alpha", "mach"), 3, 1, (3, 1), ("1", "qhat", "de"))
-    plain = SelectionSettings(max_rounds=2, max_samples=20_000)
+    plain = SelectionSettings(max_rounds=2, max_samples=20_000, hinge_start=False)
     best, history = select_structure(start, cols, y, d["man"], plain)
     assert not any("hinge" in t.move for t in history)
     best_h, history_h = select_structure(start, cols, y, d["man"],
@@ -170,9 +170,40 @@ def test_the_passes_run_inside_the_folds(monkeypatch):
     n = len(y)
     assert calls[0] == n and len(calls) == 1 + 3
     assert all(0 < c < n for c in calls[1:]) and sum(calls[1:]) == 2 * n
-    trials = [t for t in history if t.move.startswith("hinge start")]
-    assert len(trials) == len(hinge_start.GCV_PENALTIES)
-    assert all("passes inside the folds" in t.move and np.isfinite(t.score) for t in trials)
+    screen = [t for t in history if t.move.startswith("hinge start screen")]
+    honest = [t for t in history if "passes inside the folds" in t.move]
+    assert 1 <= len(screen) <= len(hinge_start.GCV_PENALTIES)
+    assert len(honest) == len(hinge_start.GCV_PENALTIES)
+    assert all(np.isfinite(t.score) for t in honest)
+    # scored with the passes on all the data, a structure looks better than it is
+    by_structure = {t.structure: t.score for t in screen}
+    assert all(t.score >= by_structure[t.structure] * 0.98 for t in honest
+               if t.structure in by_structure)
+
+
+def test_the_passes_inside_the_folds_are_skipped_where_the_screen_fails(monkeypatch):
+    """A hinge basis that does not beat the search even when scored with the passes on all
+    the data (optimistically) is not scored again: the passes run once."""
+    import simplexspline.aero.selection.search as search
+    from simplexspline.aero.selection import hinge_start
+
+    calls = []
+
+    def spy(start, columns, y, variables, **kw):
+        calls.append(len(y))
+        return hinge_start.hinge_choices(start, columns, y, variables, **kw)
+
+    monkeypatch.setattr(search, "hinge_choices", spy)
+    d = _maneuvers(n_man=9, samples=300, seed=8)
+    y = (0.02 + 0.3 * d["alpha"] + 0.1 * d["de"] - 1.5 * d["qhat"]
+         + 1e-3 * np.random.default_rng(9).standard_normal(len(d["alpha"])))
+    cols = {k: d[k] for k in ("alpha", "de", "mach", "qhat")}
+    start = Structure("CX", ("alpha",), 1, 0, (1,), ("1", "qhat", "de"))
+    _best, history = select_structure(start, cols, y, d["man"],
+                                      SelectionSettings(max_rounds=1, hinge_start=True))
+    assert calls == [len(y)]
+    assert any(t.move.startswith("hinge start screen") for t in history)
+    assert not any("passes inside the folds" in t.move for t in history)
 
 
 def test_a_hinge_basis_fitted_to_noise_is_not_taken():

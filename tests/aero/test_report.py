@@ -124,8 +124,10 @@ def test_coefficient_sections(report):
         assert f'id="coef-{c}"' in text
         label = r.structure.label()
         assert label in text and label.replace("_", "\\_").replace("*", "\\*") in md
-        for fig in ("slices", "validation", "diagnostics", "triangulation", "selection"):
+        for fig in ("slices", "validation", "diagnostics", "selection"):
             assert f"figures/{c}_{fig}.png" in md
+        # the triangulation projected on two scheduling variables, where there are two
+        assert (f"figures/{c}_triangulation.png" in md) == (len(r.model.schedule) >= 2)
         # every tried structure of the selection history is listed
         for t in r.history:
             assert t.structure.label() in text
