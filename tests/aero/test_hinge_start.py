@@ -9,8 +9,9 @@ import pytest
 
 from simplexspline.aero.modelling.notation import multiplier_parts
 from simplexspline.aero.modelling.structure import Structure
+from simplexspline.aero.selection import hinge_start, search
 from simplexspline.aero.selection.hinge_start import (
-    forward_hinges, hinge_structures, prune_path,
+    GCV_PENALTIES, forward_hinges, hinge_structures, prune_path,
 )
 from simplexspline.aero.selection.search import (
     SelectionSettings, fit_structure, select_structure,
@@ -35,6 +36,19 @@ def _maneuvers(n_man: int = 10, samples: int = 500, seed: int = 0) -> dict:
                      ("man", np.full(samples, m))):
             cols[k].append(v)
     return {k: np.concatenate(v) for k, v in cols.items()}
+
+
+@pytest.fixture
+def pass_calls(monkeypatch) -> list:
+    """The sample counts of every run of the passes the search makes (a spy)."""
+    calls = []
+
+    def spy(start, columns, y, variables, **kw):
+        calls.append(len(y))
+        return hinge_start.hinge_choices(start, columns, y, variables, **kw)
+
+    monkeypatch.setattr(search, "hinge_choices", spy)
+    return calls
 
 
 def _table_truth(d: dict) -> np.ndarray:
@@ -147,20 +161,10 @@ def test_the_hinge_start_must_beat_the_search_by_parsimony_standard_errors():
     assert loose.degree == 0
 
 
-def test_the_passes_run_inside_the_folds(monkeypatch):
+def test_the_passes_run_inside_the_folds(pass_calls):
     """The hinge structures are scored honestly: the passes run once on all the search's
     samples (the structure taken) and once per fold on the other folds' maneuvers only,
     and every hinge trial records its cost and its score."""
-    import simplexspline.aero.selection.search as search
-    from simplexspline.aero.selection import hinge_start
-
-    calls = []
-
-    def spy(start, columns, y, variables, **kw):
-        calls.append(len(y))
-        return hinge_start.hinge_choices(start, columns, y, variables, **kw)
-
-    monkeypatch.setattr(search, "hinge_choices", spy)
     d = _maneuvers(n_man=9, samples=300, seed=2)
     y = _table_truth(d) + 1e-3 * np.random.default_rng(3).standard_normal(len(d["alpha"]))
     cols = {k: d[k] for k in ("alpha", "de", "mach", "qhat")}
@@ -168,12 +172,12 @@ def test_the_passes_run_inside_the_folds(monkeypatch):
     settings = SelectionSettings(max_rounds=1, folds=3, hinge_start=True)
     _best, history = select_structure(start, cols, y, d["man"], settings)
     n = len(y)
-    assert calls[0] == n and len(calls) == 1 + 3
-    assert all(0 < c < n for c in calls[1:]) and sum(calls[1:]) == 2 * n
+    assert pass_calls[0] == n and len(pass_calls) == 1 + 3
+    assert all(0 < c < n for c in pass_calls[1:]) and sum(pass_calls[1:]) == 2 * n
     screen = [t for t in history if t.move.startswith("hinge start screen")]
     honest = [t for t in history if "passes inside the folds" in t.move]
-    assert 1 <= len(screen) <= len(hinge_start.GCV_PENALTIES)
-    assert len(honest) == len(hinge_start.GCV_PENALTIES)
+    assert 1 <= len(screen) <= len(GCV_PENALTIES)
+    assert len(honest) == len(GCV_PENALTIES)
     assert all(np.isfinite(t.score) for t in honest)
     # scored with the passes on all the data, a structure looks better than it is
     by_structure = {t.structure: t.score for t in screen}
@@ -181,19 +185,9 @@ def test_the_passes_run_inside_the_folds(monkeypatch):
                if t.structure in by_structure)
 
 
-def test_the_passes_inside_the_folds_are_skipped_where_the_screen_fails(monkeypatch):
+def test_the_passes_inside_the_folds_are_skipped_where_the_screen_fails(pass_calls):
     """A hinge basis that does not beat the search even when scored with the passes on all
     the data (optimistically) is not scored again: the passes run once."""
-    import simplexspline.aero.selection.search as search
-    from simplexspline.aero.selection import hinge_start
-
-    calls = []
-
-    def spy(start, columns, y, variables, **kw):
-        calls.append(len(y))
-        return hinge_start.hinge_choices(start, columns, y, variables, **kw)
-
-    monkeypatch.setattr(search, "hinge_choices", spy)
     d = _maneuvers(n_man=9, samples=300, seed=8)
     y = (0.02 + 0.3 * d["alpha"] + 0.1 * d["de"] - 1.5 * d["qhat"]
          + 1e-3 * np.random.default_rng(9).standard_normal(len(d["alpha"])))
@@ -201,7 +195,7 @@ def test_the_passes_inside_the_folds_are_skipped_where_the_screen_fails(monkeypa
     start = Structure("CX", ("alpha",), 1, 0, (1,), ("1", "qhat", "de"))
     _best, history = select_structure(start, cols, y, d["man"],
                                       SelectionSettings(max_rounds=1, hinge_start=True))
-    assert calls == [len(y)]
+    assert pass_calls == [len(y)]
     assert any(t.move.startswith("hinge start screen") for t in history)
     assert not any("passes inside the folds" in t.move for t in history)
 
