@@ -241,7 +241,7 @@ class SelectionSettings:
         ``bench_compare.py`` (split seed 101) its drag model ended at 3.54x the noise,
         where MARS reached 0.2x through such products (1.28x with this start). On by
         default since stop 55: on ``bench_generalization.py``'s 120 models 12 improve by
-        more than 10 % and none worsens by more than 0.04x (docs/identification.md,
+        more than 10 % and two worsen by 0.01x (docs/identification.md,
         "The hinge start"). Before the passes run inside the folds, the structures of the
         passes on all the data are scored as a screen (an optimistic score): where none
         beats the search's result by ``min_improvement``, nothing more is done.
