@@ -19,6 +19,17 @@ def true_cm(alpha, de, qhat):
     return 0.02 - 0.5 * alpha - 1.2 * de - 8.0 * qhat + 2.0 * alpha**2
 
 
+def smooth_wave(rng: np.random.Generator, t: np.ndarray, amp: float, centre: float = 0.0, *,
+                sines: int = 3, freq: tuple = (0.1, 1.0)) -> np.ndarray:
+    """One maneuver's smooth random trajectory, shape (len(t),): ``centre`` plus ``amp``
+    times the mean of ``sines`` sines of random frequencies in ``freq`` [Hz] and phases
+    (drawn from ``rng`` in that order)."""
+    f = rng.uniform(freq[0], freq[1], sines)
+    ph = rng.uniform(0, 2 * np.pi, sines)
+    return centre + amp * np.sum(np.sin(2 * np.pi * f[:, None] * t + ph[:, None]),
+                                 axis=0) / sines
+
+
 def synthetic_table(n_maneuvers: int = 12, samples: int = 800, *, seed: int = 0,
                     noise: float = 2e-3) -> pd.DataFrame:
     """Reconstructed-style flight data: each maneuver a smooth random trajectory.
@@ -31,10 +42,7 @@ def synthetic_table(n_maneuvers: int = 12, samples: int = 800, *, seed: int = 0,
     t = np.arange(samples) * 0.01
     for m in range(n_maneuvers):
         def wave(amp, centre=0.0):
-            f = rng.uniform(0.1, 1.0, 3)
-            ph = rng.uniform(0, 2 * np.pi, 3)
-            return centre + amp * np.sum(np.sin(2 * np.pi * f[:, None] * t + ph[:, None]),
-                                         axis=0) / 3
+            return smooth_wave(rng, t, amp, centre)
 
         alpha = wave(0.12, rng.uniform(0.02, 0.2))
         de = wave(0.08)
