@@ -1038,13 +1038,28 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
             t.accepted = a                                # the first search's result stays
         return best, history
 
-    with kernels.one_blas_thread():
-        best, history = searched()
-        if not settings.hinge_start:
-            return best, history
-        # the adaptive-regression-spline start (hinge_start), cross-validated with its
-        # passes inside the folds: taken when it beats the search's result by the move
-        # threshold and by ``parsimony`` standard errors
+    fold_residuals: dict = {}                   # (structure, fold) -> that fold's residuals
+
+    def held_out_in(s: Structure, f: int) -> tuple:
+        """Squared residuals of fold ``f``'s held-out samples predicted by ``s`` fitted
+        to the other folds (that fold's solve only), and the samples scored."""
+        if (s, f) not in fold_residuals:
+            only = (folds == f) & (np.ones(len(ys), dtype=bool) if scored is None
+                                   else scored)
+            try:
+                with compute_slot():
+                    fold_residuals[s, f] = cv_residuals(
+                        s, cols, ys, folds, settings, prior_degree=prior_degree,
+                        scored=only, coarse_cache=cache.coarse,
+                        equations=cache.equations)[:2]
+            except SimplexSplineError:
+                fold_residuals[s, f] = (np.full(len(ys), np.nan), only)
+        return fold_residuals[s, f]
+
+    def hinge_started(best: Structure, history: list) -> tuple:
+        """The adaptive-regression-spline start (``settings.hinge_start``),
+        cross-validated with its passes inside the folds: taken when it beats the
+        search's result by the move threshold and by ``parsimony`` standard errors."""
         found = score(best, 0, "result")
         variables = [v for v in available if v in settings.candidates]
         try:
@@ -1078,24 +1093,13 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
             held = np.zeros(len(ys), dtype=bool)
             for f, choices in enumerate(per_fold):
                 part = folds == f
-                only = part & (np.ones(len(ys), dtype=bool) if scored is None else scored)
-                if not only.any():
-                    continue                         # nothing of this fold is scored
-                try:                                 # this fold's solve only
-                    with compute_slot():
-                        rf, hf = cv_residuals(choices[pen], cols, ys, folds, settings,
-                                              prior_degree=prior_degree, scored=only,
-                                              coarse_cache=cache.coarse,
-                                              equations=cache.equations)[:2]
-                except SimplexSplineError:
-                    rf, hf = np.full(len(ys), np.nan), only
+                rf, hf = held_out_in(choices[pen], f)
                 r2[part], held[part] = rf[part], hf[part]
             c = (_pooled_rms(r2, held, folds, mans, settings)
                  if held.any() and np.all(np.isfinite(r2[held])) else float("inf"))
-            trial = Trial(h, c, 0, f"hinge start (GCV cost {pen:g}, {len(h.multipliers)} "
-                                   "terms; its passes inside the folds)",
-                          seconds=time.perf_counter() - t0)
-            history.append(trial)
+            history.append(Trial(h, c, 0, f"hinge start (GCV cost {pen:g}, "
+                                          f"{len(h.multipliers)} terms; its passes inside "
+                                          "the folds)", seconds=time.perf_counter() - t0))
             if progress is not None:
                 progress(f"{h.label()}: {c:.4g}")
             if np.isfinite(c) and (chosen is None or c < chosen[0]):
@@ -1114,6 +1118,12 @@ def select_structure(start: Structure, columns: Mapping, y: np.ndarray,
             t.accepted = False
         _accept(history, h, c)
         return h, history
+
+    with kernels.one_blas_thread():
+        best, history = searched()
+        if not settings.hinge_start:
+            return best, history
+        return hinge_started(best, history)
 
 
 #: Kinds of moves that :func:`screen_moves` ranks before any is cross-validated.
