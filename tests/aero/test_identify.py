@@ -513,7 +513,8 @@ def test_a_coefficient_no_validation_maneuver_can_excite_is_validated_by_leaving
 def test_a_search_that_cannot_score_where_the_coefficient_moves_starts_linear(table):
     """Cm moves (pitch damping) only in maneuver 0, flown at angles of attack no other
     maneuver flies: the search's cross-validation cannot score it, so the search starts
-    from the linear model of Cm's terms instead of the scheduled start, and says so."""
+    from the linear model of Cm's terms instead of the scheduled start, tries no hinge
+    basis (its knots would be placed on maneuver 0, which nothing judges), and says so."""
     from simplexspline.aero.modelling.auto import linear_start
 
     data = table.copy()
@@ -533,13 +534,18 @@ def test_a_search_that_cannot_score_where_the_coefficient_moves_starts_linear(ta
     note = [w for w in res.warnings if "scored none of the maneuvers" in w]
     assert len(note) == 1 and note[0].startswith("Cm: ") and "(0 (" in note[0]
     assert "started from the linear model of its terms" in note[0]
-    # the same data with Cm moving everywhere: the scheduled start is kept
+    assert "without the hinge start" in note[0]
+    assert FAST.hinge_start
+    assert not [t.move for t in res.results["Cm"].history if "hinge start" in t.move]
+    # the same data with Cm moving everywhere: the scheduled start is kept, and the
+    # hinge start is tried
     data["qhat"] = table["qhat"]
     data["true_Cm"] = 0.01 + 0.02 * data["de"] - 8.0 * data["qhat"]
     data["Cm"] = data["true_Cm"] + 1e-3 * rng.standard_normal(len(data))
     res = identify(data, settings=IdentificationSettings(
         coefficients=("Cm",), structures={"Cm": start}, selection=FAST, workers=1))
     assert res.results["Cm"].history[0].structure == start
+    assert [t.move for t in res.results["Cm"].history if "hinge start" in t.move]
     assert not any("scored none" in w for w in res.warnings)
 
 
@@ -657,6 +663,7 @@ def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named
                            "maneuvers that excite it most (1 (pulse-rudder), 2 "
                            "(doublet-rudder))"), note
     assert "started from the linear model of its terms and chose CY(alpha) S^0_1" in note
+    assert "without the hinge start" in note
     # a shared cell: the maneuvers cover each other and are scored
     both = cv_scored_share(cols, y, man, SelectionSettings(folds=3), seed=0,
                            cells=np.zeros(120, dtype=int))

@@ -1030,13 +1030,18 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         untested = _untested(y, mans, cv_scored_share(columns, y, mans, settings.selection,
                                                       seed=settings.seed, cells=cells,
                                                       by="variation"))
-        if untested:
-            start = linear_start(start)
+    selection = settings.selection
+    if untested:
+        # the linear model of the start's terms, and no hinge basis: the forward pass
+        # would place its knots and products on the unscored maneuvers, where the
+        # cross-validation cannot judge them (the 737 six-point course's Cn)
+        start = linear_start(start)
+        selection = replace(selection, hinge_start=False)
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
-                                                     settings.selection, seed=settings.seed,
+                                                     selection, seed=settings.seed,
                                                      cells=cells, cache=cache)
     if settings.select:
-        best, history = select_structure(start, columns, y, mans, settings.selection,
+        best, history = select_structure(start, columns, y, mans, selection,
                                          seed=settings.seed, prior_degree=prior_degree,
                                          cells=cells, cache=cache,
                                          duration_s=_duration(ident))
@@ -1087,8 +1092,9 @@ def _unscored_note(c: str, best: Structure, untested: list, types: np.ndarray | 
                    maneuvers: np.ndarray) -> str:
     """The note on a coefficient whose exciting maneuvers (``untested``: :func:`_untested`)
     the search's cross-validation never scored: its search started from the linear model
-    of its terms (:func:`~simplexspline.aero.modelling.auto.linear_start`), and ``best``
-    is what the scored maneuvers supported beyond it."""
+    of its terms (:func:`~simplexspline.aero.modelling.auto.linear_start`) without the
+    hinge start (``SelectionSettings.hinge_start``), and ``best`` is what the scored
+    maneuvers supported beyond it."""
     first = {} if types is None else {m: types[k] for m, k in
                                       zip(*np.unique(maneuvers, return_index=True))}
     named = ", ".join(f"{m}" + (f" ({first[m]})" if m in first else "")
@@ -1096,8 +1102,10 @@ def _unscored_note(c: str, best: Structure, untested: list, types: np.ndarray | 
     return (f"{c}: the structure search's cross-validation scored none of the maneuvers "
             f"that excite it most ({named}): each lies alone in its envelope cells, so no "
             "structure could be tested where it matters; the search started from the "
-            f"linear model of its terms and chose {best.label()} on the other maneuvers; "
-            "fly those inputs twice per test point to test a scheduled structure")
+            f"linear model of its terms and chose {best.label()} on the other maneuvers, "
+            "without the hinge start (its forward pass would place knots on those "
+            "maneuvers that nothing judges); fly those inputs twice per test point to "
+            "test a scheduled structure")
 
 
 def _duration(data) -> float | None:
