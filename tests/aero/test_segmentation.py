@@ -122,8 +122,9 @@ def test_stationary_measurements_are_found_between_the_maneuvers():
     """A course at 10 Hz: a stationary measurement at 60 m/s (90 s) with a maneuver inside
     it, an acceleration to 70 m/s (40 s), a second at 70 m/s (60 s) whose last 20 s climb
     60 m, a turn, a third of 20 s only. Found: the first's parts either side of the
-    maneuver (40 s each), the second's level part; not the acceleration, the climb, the
-    turn or the short one."""
+    maneuver (40 s each), the second's level part, the level stretch between the climb
+    and the turn (with at most the heading band's 9 deg of the turn's entry); not the
+    acceleration, the climb, the turn or the short one."""
     from simplexspline.aero.data.segmentation import (STEADY_MIN_S, Segment, detect_steady)
 
     rng = np.random.default_rng(3)
@@ -141,10 +142,12 @@ def test_stationary_measurements_are_found_between_the_maneuvers():
     found = detect_steady(t, data, np.ones(t.size, bool), others)
     assert all(s.type == "steady" and s.end - s.start >= STEADY_MIN_S for s in found)
     spans = [(round(s.start), round(s.end)) for s in found]
-    assert len(found) == 3, spans
+    assert len(found) == 4, spans
     assert found[0].start == 0.0 and 39.0 <= found[0].end <= 40.0        # before the maneuver
     assert 50.0 <= found[1].start <= 51.0 and 86.0 <= found[1].end <= 100.0  # after it
     assert 118.0 <= found[2].start <= 132.0 and 188.0 <= found[2].end <= 202.0  # at 70 m/s
+    # level after the climb: into the 3 deg/s turn by no more than 9 deg (3 s + smoothing)
+    assert 195.0 <= found[3].start <= 211.0 and 228.0 <= found[3].end <= 235.0
     assert detect_steady(t, {"tas": data["tas"]}, np.ones(t.size, bool), []) == []
 
 
@@ -157,3 +160,50 @@ def test_stationary_measurements_can_be_switched_off_and_the_key_is_a_boolean(tm
     assert len(on.segments()) >= len(off.segments())
     with pytest.raises(InputError, match=r"steady.*must be true or false"):
         import_record(_mapping(tmp_path, "[segments]\nsteady = 1\n"))
+
+
+def _gusts(rng, n: int, dt: float, tau: float, sd: float) -> np.ndarray:
+    """First-order Gauss-Markov noise: correlation time ``tau`` [s], standard deviation
+    ``sd``."""
+    a = np.exp(-dt / tau)
+    w = rng.standard_normal(n) * sd * np.sqrt(1.0 - a * a)
+    out = np.empty(n)
+    out[0] = sd * rng.standard_normal()
+    for i in range(1, n):
+        out[i] = a * out[i - 1] + w[i]
+    return out
+
+
+def test_stationary_measurements_in_turbulence_are_found_and_turns_are_not():
+    """Light turbulence at 10 Hz: the airspeed fluctuates by 1 m/s (3 s correlation),
+    the altitude by 5 m, the heading rate by 0.2 deg/s, so the 2 s means leave the fixed
+    2 m/s band and the heading rate crosses the turn threshold every few seconds. A
+    90 s stationary measurement at 60 m/s is found (most of it); the acceleration to
+    70 m/s (0.25 m/s^2 over 40 s) and a slow 1 deg/s turn of 60 s in the same
+    turbulence are not. Without the gust-scaled bands none was found."""
+    from simplexspline.aero.data.segmentation import detect_steady
+
+    rng = np.random.default_rng(11)
+    dt = 0.1
+    t = np.arange(0.0, 260.0, dt)
+    tas = np.interp(t, [0, 90, 130, 400], [60.0, 60.0, 70.0, 70.0])
+    turn = (t >= 150) & (t < 210)
+    rate = np.where(turn, np.radians(1.0), 0.0) + _gusts(rng, t.size, dt, 2.0,
+                                                           np.radians(0.2))
+    phi = np.where(turn, 0.05, 0.0) + _gusts(rng, t.size, dt, 2.0, 0.01)
+    theta = 0.03 + _gusts(rng, t.size, dt, 2.0, 0.005)
+    data = {"tas": tas + _gusts(rng, t.size, dt, 3.0, 1.0),
+            "h": 1000.0 + _gusts(rng, t.size, dt, 10.0, 5.0),
+            "phi": phi, "theta": theta,
+            # the Euler heading rate (q sin(phi) + r cos(phi)) / cos(theta) is ``rate``
+            "q": rate * np.sin(phi) * np.cos(theta), "r": rate * np.cos(phi) * np.cos(theta)}
+    found = detect_steady(t, data, np.ones(t.size, bool), [])
+    spans = [(round(s.start), round(s.end)) for s in found]
+    covered = np.zeros(t.size, bool)
+    for s in found:
+        covered |= (t >= s.start) & (t <= s.end)
+    assert covered[t < 90].mean() > 0.8, spans            # the stationary measurement
+    assert not covered[(t > 102) & (t < 118)].any(), spans  # not the acceleration
+    assert not covered[(t > 165) & (t < 195)].any(), spans  # not the turn
+    # the fixed bands alone (band_sigmas = 0) find nothing here
+    assert detect_steady(t, data, np.ones(t.size, bool), [], band_sigmas=0.0) == []

@@ -323,6 +323,11 @@ STEADY_AIRSPEED_BAND = 2.0
 STEADY_HEIGHT_BAND = 30.0
 #: ... for at least this long [s]: a stationary measurement lasts a minute or more.
 STEADY_MIN_S = 30.0
+#: In turbulence the bands widen to this many robust standard deviations of the smoothed
+#: airspeed's and altitude's fluctuation about their trend over ``STEADY_MIN_S`` (the
+#: record's own gust level; :func:`detect_steady`), the factor of the fixed bands over the
+#: sensor's noise.
+STEADY_BAND_SIGMAS = 5.0
 
 
 def _longest_within(x: np.ndarray, band: np.ndarray) -> tuple[int, int]:
@@ -351,11 +356,25 @@ def _longest_within(x: np.ndarray, band: np.ndarray) -> tuple[int, int]:
     return best
 
 
+def _fluctuation(x: np.ndarray, where: np.ndarray, window: int) -> np.ndarray:
+    """Robust standard deviation (1.4826 x the median absolute deviation) per column of
+    ``x`` (n, k) about its running median over ``window`` samples, over the samples
+    ``where``; zeros where none is."""
+    from scipy.ndimage import median_filter  # lazy: scipy.ndimage costs ~0.4 s to import
+
+    if not where.any():
+        return np.zeros(x.shape[1])
+    dev = x - median_filter(x, size=(max(3, window | 1), 1), mode="nearest")
+    dev = dev[where]
+    return 1.4826 * np.median(np.abs(dev - np.median(dev, axis=0)), axis=0)
+
+
 def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
                   min_duration_s: float = STEADY_MIN_S,
                   airspeed_band: float = STEADY_AIRSPEED_BAND,
                   height_band: float = STEADY_HEIGHT_BAND,
-                  smooth_s: float = 2.0) -> list[Segment]:
+                  smooth_s: float = 2.0,
+                  band_sigmas: float = STEADY_BAND_SIGMAS) -> list[Segment]:
     """The stationary measurements of a flight: straight, level stretches at one airspeed
     between the detected maneuvers and turns.
 
@@ -371,6 +390,16 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
     ``height_band``, when it lasts ``min_duration_s`` or more, and so on in what is left
     either side of it: type ``steady``.
 
+    **Turbulence.** Gusts move the measured airspeed by a metre per second or more within
+    seconds while the pilot holds the test point's mean: on the simulated light-turbulence
+    courses of ``bench_courses.py`` a stationary measurement's 2 s mean airspeed spanned
+    4.8-11 m/s, and none of the 48 was found. So each band is at least ``band_sigmas``
+    robust standard deviations (1.4826 x the median absolute deviation) of the smoothed
+    signal about its running median over ``min_duration_s``, over the samples that
+    ``others`` leave (the record's own fluctuation at the time scales within a
+    measurement; the fixed bands are four times the sensor's noise for the same reason).
+    In still air that fluctuation is the sensor's noise and the fixed bands hold.
+
     Parameters
     ----------
     t : ndarray, shape (n,)
@@ -382,6 +411,9 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
     others : list of Segment
         The maneuvers (and turns) already cut.
     min_duration_s, airspeed_band, height_band, smooth_s : float
+    band_sigmas : float
+        The bands' least width in robust standard deviations of the smoothed signals'
+        fluctuation (0: the fixed bands only).
 
     Returns
     -------
@@ -396,12 +428,17 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
     free = np.asarray(usable, bool).copy()
     for o in others:
         free &= ~((t >= o.start) & (t <= o.end))
+    bands = [airspeed_band, height_band]
     if all(c in data for c in ("q", "r", "phi", "theta")):
         q, r, phi, theta = (_fill(np.asarray(data[c], dtype=float))
                             for c in ("q", "r", "phi", "theta"))
-        rate = _moving_mean(euler_rates(0.0, q, r, phi, theta)[2], k)
-        free &= np.abs(rate) <= TURN_RATE
-    band = np.array([airspeed_band, height_band])
+        # the heading [rad], the integral of the Euler heading rate: straight flight
+        # holds it within what TURN_RATE turns in min_duration_s
+        heading = np.cumsum(_moving_mean(euler_rates(0.0, q, r, phi, theta)[2], k)) * dt
+        x = np.column_stack([x, heading])
+        bands.append(TURN_RATE * min_duration_s)
+    band = np.maximum(bands,
+                      band_sigmas * _fluctuation(x, free, int(round(min_duration_s / dt))))
     out = []
     todo = list(_runs(free))
     while todo:                 # the longest steady part, then those left and right of it
