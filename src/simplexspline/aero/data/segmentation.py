@@ -324,9 +324,10 @@ STEADY_HEIGHT_BAND = 30.0
 #: ... for at least this long [s]: a stationary measurement lasts a minute or more.
 STEADY_MIN_S = 30.0
 #: In turbulence the bands widen to this many robust standard deviations of the smoothed
-#: airspeed's and altitude's fluctuation about their trend over ``STEADY_MIN_S`` (the
-#: record's own gust level; :func:`detect_steady`), the factor of the fixed bands over the
-#: sensor's noise.
+#: airspeed's, altitude's and heading's fluctuation about their trend over
+#: ``STEADY_MIN_S`` (the record's own gust level; :func:`detect_steady`): about the
+#: expected range of a hundred independent normal draws, a 90 s measurement of gusts
+#: correlated over a second or so (4 sigmas kept only half of each measurement).
 STEADY_BAND_SIGMAS = 5.0
 
 
@@ -384,16 +385,19 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
     observes the offset plus the scale error times its one angle of attack) and that trace
     the lift curve: on a simulated still-air Cessna course cut by excitation, the angle of
     attack came out 1.5e-3 rad RMS off without them, 2.0e-4 with a maneuver list that
-    logged them. Here every stretch of usable samples that ``others`` do not overlap and
-    that does not turn (heading rate below :data:`TURN_RATE`) gives its longest part whose
-    airspeed and altitude (averaged over ``smooth_s``) stay within ``airspeed_band`` and
-    ``height_band``, when it lasts ``min_duration_s`` or more, and so on in what is left
-    either side of it: type ``steady``.
+    logged them. Here every stretch of usable samples that ``others`` do not overlap gives
+    its longest part whose airspeed and altitude (averaged over ``smooth_s``) stay within
+    ``airspeed_band`` and ``height_band`` and whose heading (the integral of the Euler
+    heading rate, with ``q, r, phi, theta``) stays within what :data:`TURN_RATE` turns in
+    ``min_duration_s`` (9 deg), when it lasts ``min_duration_s`` or more, and so on in
+    what is left either side of it: type ``steady``.
 
     **Turbulence.** Gusts move the measured airspeed by a metre per second or more within
     seconds while the pilot holds the test point's mean: on the simulated light-turbulence
     courses of ``bench_courses.py`` a stationary measurement's 2 s mean airspeed spanned
-    4.8-11 m/s, and none of the 48 was found. So each band is at least ``band_sigmas``
+    4.8-11 m/s and the 2 s heading rate crossed 0.3 deg/s every few seconds (0.2 deg/s
+    standard deviation), and none of the 48 was found while straight flight was judged by
+    that rate. So the heading is judged over the stretch instead, and each band is at least ``band_sigmas``
     robust standard deviations (1.4826 x the median absolute deviation) of the smoothed
     signal about its running median over ``min_duration_s``, over the samples that
     ``others`` leave (the record's own fluctuation at the time scales within a
