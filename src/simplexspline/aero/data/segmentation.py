@@ -30,7 +30,7 @@ from simplexspline.errors import InputError
 __all__ = ["Segment", "airborne_mask", "read_maneuver_list", "detect_excitation",
            "detect_turns", "detect_steady", "outside", "airborne_segments", "cut",
            "EXCITATION_SIGNALS", "STEADY_AIRSPEED_BAND", "STEADY_HEIGHT_BAND", "STEADY_MIN_S",
-           "TURN_RATE"]
+           "STEADY_BANK_BAND", "STEADY_BAND_SIGMAS", "TURN_RATE"]
 
 #: Signals whose activity marks a maneuver, and the axis each belongs to.
 EXCITATION_SIGNALS: dict[str, str] = {"de": "elevator", "da": "aileron", "dr": "rudder",
@@ -323,6 +323,9 @@ STEADY_AIRSPEED_BAND = 2.0
 STEADY_HEIGHT_BAND = 30.0
 #: ... for at least this long [s]: a stationary measurement lasts a minute or more.
 STEADY_MIN_S = 30.0
+#: ... and its bank angle within this band [rad] (5 deg): wings level, not a turn's entry or
+#: roll-out, whose heading may still change less than the heading band.
+STEADY_BANK_BAND = np.radians(5.0)
 #: In turbulence the bands widen to this many robust standard deviations of the smoothed
 #: airspeed's, altitude's and heading's fluctuation about their trend over
 #: ``STEADY_MIN_S`` (the record's own gust level; :func:`detect_steady`): about the
@@ -375,7 +378,8 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
                   airspeed_band: float = STEADY_AIRSPEED_BAND,
                   height_band: float = STEADY_HEIGHT_BAND,
                   smooth_s: float = 2.0,
-                  band_sigmas: float = STEADY_BAND_SIGMAS) -> list[Segment]:
+                  band_sigmas: float = STEADY_BAND_SIGMAS,
+                  bank_band: float = STEADY_BANK_BAND) -> list[Segment]:
     """The stationary measurements of a flight: straight, level stretches at one airspeed
     between the detected maneuvers and turns.
 
@@ -389,7 +393,9 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
     its longest part whose airspeed and altitude (averaged over ``smooth_s``) stay within
     ``airspeed_band`` and ``height_band`` and whose heading (the integral of the Euler
     heading rate, with ``q, r, phi, theta``) stays within what :data:`TURN_RATE` turns in
-    ``min_duration_s`` (9 deg), when it lasts ``min_duration_s`` or more, and so on in
+    ``min_duration_s`` (9 deg) and its bank angle within ``bank_band`` (wings level: a
+    turn's roll-out, still banked 10 deg while its heading changes 7 deg, is not taken),
+    when it lasts ``min_duration_s`` or more, and so on in
     what is left either side of it: type ``steady``.
 
     **Turbulence.** Gusts move the measured airspeed by a metre per second or more within
@@ -418,6 +424,8 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
     band_sigmas : float
         The bands' least width in robust standard deviations of the smoothed signals'
         fluctuation (0: the fixed bands only).
+    bank_band : float
+        Band of the bank angle [rad] (with ``q, r, phi, theta``).
 
     Returns
     -------
@@ -439,8 +447,8 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
         # the heading [rad], the integral of the Euler heading rate: straight flight
         # holds it within what TURN_RATE turns in min_duration_s
         heading = np.cumsum(_moving_mean(euler_rates(0.0, q, r, phi, theta)[2], k)) * dt
-        x = np.column_stack([x, heading])
-        bands.append(TURN_RATE * min_duration_s)
+        x = np.column_stack([x, heading, _moving_mean(phi, k)])
+        bands += [TURN_RATE * min_duration_s, bank_band]
     band = np.maximum(bands,
                       band_sigmas * _fluctuation(x, free, int(round(min_duration_s / dt))))
     out = []
