@@ -15,6 +15,7 @@ Usage::
 
     python benchmarks/bench_courses.py                # the 14 courses of stop 47 (~12 min)
     python benchmarks/bench_courses.py --courses "737 6 24 none; global5000 12 1 light"
+    python benchmarks/bench_courses.py --variants excitation   # half the time: no list
 """
 
 from __future__ import annotations
@@ -38,7 +39,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--courses", default=COURSES,
                     help="';'-separated 'aircraft test-points seed turbulence'")
+    ap.add_argument("--variants", default="excitation,list",
+                    help="comma-separated mapping variants: excitation (no maneuver list, "
+                    "segments detected), list; a segmentation change moves only the first")
     args = ap.parse_args()
+    variants = [v.strip() for v in args.variants.split(",") if v.strip()]
+    unknown = sorted(set(variants) - {"excitation", "list"})
+    if unknown or not variants:
+        ap.error(f"unknown variant(s) {unknown or variants}: use excitation, list or both")
     warnings.simplefilter("ignore")
     head = ("| course | variant | " + " | ".join(f"{c} R2 (true/noise)" for c in COEF)
             + " | CL_alpha (truth) | Cm_alpha (truth) | s (course) |")
@@ -49,7 +57,7 @@ def main() -> None:
         aircraft, points, seed, turbulence = spec.split()
         t0 = time.perf_counter()
         results, *_rest = fly_and_identify(aircraft, int(points), int(seed), turbulence,
-                                           "eigenmotion", ["excitation", "list"],
+                                           "eigenmotion", variants,
                                            turns=True)
         truth = _rest[2]
         for r in results:
