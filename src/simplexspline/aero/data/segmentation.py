@@ -395,20 +395,21 @@ def detect_steady(t: np.ndarray, data, usable: np.ndarray, others: list, *,
     heading rate, with ``q, r, phi, theta``) stays within what :data:`TURN_RATE` turns in
     ``min_duration_s`` (9 deg) and its bank angle within ``bank_band`` (wings level: a
     turn's roll-out, still banked 10 deg while its heading changes 7 deg, is not taken),
-    when it lasts ``min_duration_s`` or more, and so on in
-    what is left either side of it: type ``steady``.
+    when it lasts ``min_duration_s`` or more, and so on in what is left either side of
+    it: type ``steady``.
 
     **Turbulence.** Gusts move the measured airspeed by a metre per second or more within
     seconds while the pilot holds the test point's mean: on the simulated light-turbulence
     courses of ``bench_courses.py`` a stationary measurement's 2 s mean airspeed spanned
     4.8-11 m/s and the 2 s heading rate crossed 0.3 deg/s every few seconds (0.2 deg/s
     standard deviation), and none of the 48 was found while straight flight was judged by
-    that rate. So the heading is judged over the stretch instead, and each band is at least ``band_sigmas``
-    robust standard deviations (1.4826 x the median absolute deviation) of the smoothed
-    signal about its running median over ``min_duration_s``, over the samples that
-    ``others`` leave (the record's own fluctuation at the time scales within a
-    measurement; the fixed bands are four times the sensor's noise for the same reason).
-    In still air that fluctuation is the sensor's noise and the fixed bands hold.
+    that rate. So the heading is judged over the stretch instead, and each band is at
+    least ``band_sigmas`` robust standard deviations (1.4826 x the median absolute
+    deviation) of the smoothed signal about its running median over ``min_duration_s``,
+    over the samples that ``others`` leave (the record's own fluctuation at the time
+    scales within a measurement; the fixed bands are four times the sensor's noise for
+    the same reason). In still air that fluctuation is the sensor's noise and the fixed
+    bands hold.
 
     Parameters
     ----------
