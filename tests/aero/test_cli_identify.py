@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -37,7 +38,11 @@ def test_identify_raw_campaign_end_to_end(campaign_file, tmp_path):
     assert res.returncode == 0, res.stderr
     assert "flight path reconstruction" in res.stdout
     assert "rel. RMS" in res.stdout and "CZ(" in res.stdout       # the Table-2 table
+    # the derivatives at the reference condition, with their jackknife errors
+    assert "derivatives at the reference condition" in res.stdout
+    assert re.search(r"Cm_alpha\s+[-+][0-9.]+ \+- [0-9.e-]+\s+1/rad", res.stdout), res.stdout
     summary = json.loads((out / "summary.json").read_text())
+    assert summary["derivatives"]["values"]["Cm_alpha"]["folds"] == 5
     assert summary["provenance"]["source"].startswith("campaign.parquet (sha256:")
     assert summary["provenance"]["reconstruction"]["reconstructed"] is True
     for c in ("CZ", "Cm"):

@@ -20,6 +20,7 @@ from simplexspline.aero.identify import (
     _vane_scale_note,
     identify,
 )
+from simplexspline.aero.derivatives import derivatives, reference_conditions
 from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.aero.selection.search import SelectionSettings, fit_structure, select_structure
 from simplexspline.aero.modelling.structure import Structure
@@ -118,6 +119,62 @@ def test_table_and_summary(result):
             assert key in e
         assert 0 < e["rrms"] < 0.05
     assert s["coefficients"]["CZ"]["paper_rrms"] == 0.026
+
+
+def test_derivatives_come_with_their_jackknife_standard_errors(result):
+    """identify refits each structure without each fold of identification maneuvers and
+    gives the derivatives at the reference condition with their spread."""
+    table = result.derivatives
+    k = result.settings.derivative_folds
+    assert table.attrs["folds"] == k == 5
+    assert all(len(r.fold_models) == k for r in result.results.values())
+    models = {c: r.model for c, r in result.results.items()}
+    ref = reference_conditions(models, result.identification)
+    assert table.attrs["reference"] == pytest.approx(ref)
+    at_ref = derivatives(models, reference=ref)
+    row = table.loc["Cm_alpha"]
+    assert row["value"] == pytest.approx(at_ref["Cm_alpha"].iloc[0])
+    assert row["folds"] == k and 0 < row["standard_error"] < 0.1
+    # true_cm = 0.02 - 0.5 alpha - 1.2 de - 8 qhat + 2 alpha^2: the truth within 4 errors
+    truth = -0.5 + 4.0 * ref["alpha"]
+    assert abs(row["value"] - truth) < 4 * row["standard_error"] + 0.01
+    assert "CL_alpha" not in table.index         # no CX model
+    s = result.summary()["derivatives"]
+    assert s["folds"] == k and s["values"]["Cm_alpha"]["standard_error"] == pytest.approx(
+        row["standard_error"])
+    json.dumps(s)                                 # plain JSON
+    text = result.derivative_table()
+    assert re.search(r"Cm_alpha\s+[-+][0-9.]+ \+- [0-9.e-]+\s+1/rad", text), text
+
+
+def test_no_folds_no_standard_errors(table):
+    settings = IdentificationSettings(coefficients=("Cm",), selection=FAST,
+                                      derivative_folds=0)
+    res = identify(table, settings=settings)
+    assert res.derivatives is None and res.results["Cm"].fold_models == []
+    assert "derivatives" not in res.summary() and res.derivative_table() == ""
+
+
+def test_a_derivative_whose_sign_the_data_do_not_determine_is_named(table):
+    """Cm without any elevator effect, in a model that takes the elevator: its Cm_de is
+    noise about zero, and identify says the data do not determine its sign (not a
+    confident slope); Cm_alpha, which the data determine, is not named."""
+    data = table.copy()
+    data["Cm"] = data["Cm"] + 1.2 * data["de"]
+    data.attrs = table.attrs
+    settings = IdentificationSettings(
+        coefficients=("Cm",), select=False,
+        structures={"Cm": Structure("Cm", ("alpha", "de", "qhat"), 2, 1)})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = identify(data, settings=settings)
+    row = res.derivatives.loc["Cm_de"]
+    assert abs(row["value"]) < 2 * row["standard_error"]
+    note = next(n for n in res.warnings if "do not determine the sign" in n)
+    assert re.search(r"Cm_de [-+][0-9.e-]+ \+- [0-9.e-]+ 1/rad", note), note
+    assert "Cm_alpha" not in note
+    assert any("do not determine the sign" in str(w.message) for w in caught
+               if issubclass(w.category, ThinDataWarning))
 
 
 def test_save_writes_models_summary_and_loads(result, tmp_path, monkeypatch):
@@ -288,6 +345,9 @@ def test_thin_simplices_warn(table):
     ({"seed": -1}, "seed must be an integer between 0 and"),
     ({"seed": 1.5}, "seed must be an integer between 0 and"),
     ({"workers": 0}, "workers must be an integer >= 1 or None"),
+    ({"derivative_folds": 1}, "derivative_folds must be 0 .no standard errors. or an integer"),
+    ({"derivative_folds": -2}, "derivative_folds must be 0"),
+    ({"derivative_folds": 2.5}, "derivative_folds must be 0"),
 ])
 def test_settings_are_validated_before_any_work(change, match):
     """Bad settings fail when the settings are made, not after the whole run."""

@@ -116,6 +116,15 @@ def test_html_contains_table_numbers(report):
         assert f"{100 * PAPER_TABLE2[c]:.2f} %" in text
 
 
+def test_derivative_table_has_the_jackknife_standard_errors(report):
+    res, _, path, _ = report
+    md = (path.parent / "report.md").read_text(encoding="utf-8")
+    assert "standard error" in md and "jackknife" in md
+    se = res.derivatives.loc["Cm_alpha", "standard_error"]
+    row = next(line for line in md.splitlines() if "Cm\\_alpha" in line or "Cm_alpha" in line)
+    assert f"{se:.2g}" in row, row
+
+
 def test_coefficient_sections(report):
     res, _, path, _ = report
     text = path.read_text(encoding="utf-8")

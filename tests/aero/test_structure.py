@@ -86,6 +86,7 @@ def test_config_file(tmp_path):
 coefficients = ["CZ", "Cm"]
 validation_fraction = 0.3
 select = false
+derivative_folds = 4
 
 [selection]
 max_rounds = 2
@@ -98,6 +99,7 @@ resolution = 2
 """)
     s = load_config(path)
     assert s.coefficients == ("CZ", "Cm") and s.validation_fraction == 0.3 and not s.select
+    assert s.derivative_folds == 4
     assert s.selection.max_rounds == 2 and s.selection.candidates == ("alpha", "qhat")
     cz = s.starting_structures()["CZ"]
     assert cz == Structure("CZ", ("alpha", "de", "qhat"), 4, 1, (2, 2, 2))
@@ -112,6 +114,7 @@ resolution = 2
     ({"models": {"CZ": {"degree": 3}}}, "'variables' is missing"),
     ({"models": {"CZ": {"variables": ["alpha"], "order": 3}}}, r"unknown key\(s\) \['order'\]"),
     ({"identify": {"coefficients": ["CW"]}}, r"unknown coefficient\(s\) \['CW'\]"),
+    ({"identify": {"derivative_folds": 1}}, "derivative_folds must be 0"),
 ])
 def test_config_errors_name_the_key(config, match):
     with pytest.raises(InputError, match=match):

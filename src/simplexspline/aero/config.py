@@ -11,6 +11,7 @@ A config file (all tables and keys optional)::
     select = true              # automatic structure selection from the structures below
     reconstruct = "auto"       # 'auto' | 'always' | 'never'
     thin_factor = 2.0
+    derivative_folds = 5       # jackknife folds of the derivatives' standard errors (0: none)
 
     [selection]
     candidates = ["alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr",

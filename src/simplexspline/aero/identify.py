@@ -25,6 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline.aero.data.angle_rates import ANGLE_RATE_NAMES, angle_rates
+from simplexspline.aero.derivatives.jackknife import (
+    MIN_FOLDS,
+    jackknife_derivatives,
+    primary_derivatives,
+)
+from simplexspline.aero.derivatives.stability import reference_conditions
 from simplexspline.aero.data.flight_data import without_metadata
 from simplexspline.aero.data.thrust_coefficient import (
     FAN_SPEED_THRUST_COEFFICIENT,
@@ -57,6 +63,7 @@ from simplexspline.aero.variables import (
 )
 from simplexspline.aero.selection.validation import (
     PAPER_TABLE2,
+    fold_by_maneuver,
     maneuver_spread,
     scores,
     scores_by_coverage,
@@ -81,6 +88,10 @@ __all__ = [
     "check_output_dir",
     "identify",
 ]
+
+#: Folds of identification maneuvers of the derivatives' jackknife standard errors
+#: (:attr:`IdentificationSettings.derivative_folds`).
+DERIVATIVE_FOLDS = 5
 
 #: Columns that identify data as already reconstructed (coefficients present).
 _RECONSTRUCTED = ("CX", "CY", "CZ", "Cl", "Cm", "Cn", "phat", "qhat", "rhat")
@@ -135,6 +146,12 @@ class IdentificationSettings:
     thin_factor : float
         A simplex is reported as thinly covered when it holds fewer than
         ``thin_factor * d_hat`` identification samples.
+    derivative_folds : int
+        Folds of identification maneuvers for the jackknife standard errors of the
+        derivatives at the reference condition
+        (:mod:`~simplexspline.aero.derivatives.jackknife`): each model's structure is
+        identified again without each fold (fewer folds with fewer maneuvers; 0: no
+        standard errors).
     """
 
     coefficients: tuple = COEFFICIENTS
@@ -148,6 +165,7 @@ class IdentificationSettings:
     reconstruct: str = "auto"
     workers: int | None = None
     thin_factor: float = 2.0
+    derivative_folds: int = DERIVATIVE_FOLDS
 
     def __post_init__(self):
         unknown = [c for c in self.coefficients if c not in COEFFICIENTS]
@@ -169,6 +187,11 @@ class IdentificationSettings:
                 or not 0 <= self.seed < 2**32:
             raise InputError(f"seed must be an integer between 0 and {2**32 - 1}, got "
                              f"{self.seed!r}")
+        if isinstance(self.derivative_folds, bool) \
+                or not isinstance(self.derivative_folds, (int, np.integer)) \
+                or self.derivative_folds < 0 or self.derivative_folds == 1:
+            raise InputError("derivative_folds must be 0 (no standard errors) or an integer "
+                             f">= 2, got {self.derivative_folds!r}")
         if self.workers is not None and (isinstance(self.workers, bool)
                                          or not isinstance(self.workers, (int, np.integer))
                                          or self.workers < 1):
@@ -188,6 +211,7 @@ class IdentificationSettings:
             "validation_fraction": self.validation_fraction, "seed": self.seed,
             "split_motion": self.split_motion,
             "reconstruct": self.reconstruct, "thin_factor": self.thin_factor,
+            "derivative_folds": self.derivative_folds,
         }
 
 
@@ -214,6 +238,10 @@ class CoefficientResult:
         ``excitation`` (:func:`~simplexspline.aero.selection.diagnostics.excitation` of
         the validation data) and ``collinearity`` (per input variable: VIF, most
         correlated partner, standard error of its linear derivative).
+    fold_models : list of AeroModel or None
+        The structure identified again without each fold of identification maneuvers
+        (None where that fit failed), for the derivatives' jackknife
+        (:attr:`IdentificationSettings.derivative_folds`; empty without it).
     """
 
     model: AeroModel
@@ -224,6 +252,7 @@ class CoefficientResult:
     thin: np.ndarray
     seconds: float = 0.0
     diagnostics: dict = field(default_factory=dict)
+    fold_models: list = field(default_factory=list)
 
     @property
     def structure(self) -> Structure:
@@ -255,6 +284,11 @@ class Identification:
         (``ValidationSplit.left_out``): a model of the same structure identified without
         it predicts it, and the validation scores hold that prediction
         (``validation['left_out']``); the delivered model is identified on it.
+    derivatives : pandas.DataFrame or None
+        The models' derivatives at the reference condition (the identification data's
+        medians) with their maneuver-jackknife standard errors
+        (:func:`~simplexspline.aero.derivatives.jackknife.jackknife_derivatives`); None
+        with ``derivative_folds = 0`` or too few maneuvers.
     """
 
     results: dict
@@ -265,6 +299,7 @@ class Identification:
     provenance: dict
     warnings: list = field(default_factory=list)
     left_out_validation: dict = field(default_factory=dict)
+    derivatives: object = None
 
     @property
     def has_truth(self) -> bool:
@@ -289,6 +324,21 @@ class Identification:
                 line += (f" {v['rms_true']:>10.3e} {100 * v['rrms_true']:>8.3f}%"
                          f" {v['noise_rms']:>10.3e}")
             lines.append(line)
+        return "\n".join(lines)
+
+    def derivative_table(self) -> str:
+        """The primary derivatives at the reference condition with their jackknife standard
+        errors (plain text; '' without them)."""
+        if self.derivatives is None:
+            return ""
+        rows = primary_derivatives(self.derivatives)
+        if rows.empty:
+            return ""
+        lines = [f"derivatives at the reference condition (identification-data medians), "
+                 f"+- jackknife standard error over {self.derivatives.attrs['folds']} folds "
+                 f"of maneuvers:"]
+        lines += [f"  {n:<10} {r.value:>+10.4g} +- {r.standard_error:<9.2g} {r.unit}"
+                  for n, r in rows.iterrows()]
         return "\n".join(lines)
 
     def summary(self) -> dict:
@@ -325,6 +375,16 @@ class Identification:
             if res.diagnostics:
                 entry["diagnostics"] = res.diagnostics
             out["coefficients"][c] = entry
+        if self.derivatives is not None:
+            table = self.derivatives
+            out["derivatives"] = {
+                "reference": table.attrs["reference"], "folds": table.attrs["folds"],
+                "method": "delete-a-group jackknife over folds of identification maneuvers",
+                "values": {n: {"coefficient": r.coefficient, "variable": r.variable,
+                               "unit": r.unit, "in_model": bool(r.in_model),
+                               "value": r.value, "standard_error": r.standard_error,
+                               "folds": int(r.folds), "fold_values": list(r.fold_values)}
+                           for n, r in table.iterrows()}}
         return out
 
     def save(self, outdir, *, report: bool = True, model_format: str = "json",
@@ -542,7 +602,13 @@ def identify(df, metadata: Mapping | None = None, *,
     if source:
         prov["source"] = source
     left = {c: m for c, m in left.items() if "left_out" in results[c].validation}
-    out = Identification(results, ident, valid, settings, meta, prov, notes, left)
+    table = _derivative_errors(results, ident)
+    if table is not None:
+        unsure = _sign_note(table)
+        if unsure:
+            warnings.warn(unsure, ThinDataWarning, stacklevel=2)
+            notes.append(unsure)
+    out = Identification(results, ident, valid, settings, meta, prov, notes, left, table)
     _record_provenance(results, out, meta, settings, prov)
     return out
 
@@ -1136,6 +1202,7 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     model = fit_structure(best, columns, y, settings.selection, prior_degree=prior_degree,
                           provenance={"coefficient": c, **({"source": source}
                                                             if source else {})})
+    folds = _fold_models(best, columns, y, mans, settings, prior_degree)
     if prior_scores:
         model.provenance["prior"]["cv_rms_by_degree"] = {str(d): v for d, v in
                                                           prior_scores.items()}
@@ -1242,8 +1309,60 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     if left_out is not None:
         diagnostics["flow_angle_left_out"] = left_out
     result = CoefficientResult(model, v_scores, i_scores, history, counts, thin, seconds,
-                               diagnostics)
+                               diagnostics, folds)
     return result, pred_v, notes, warn
+
+
+def _fold_models(best: Structure, columns: Mapping, y: np.ndarray, mans: np.ndarray,
+                 settings: IdentificationSettings, prior_degree: int) -> list:
+    """The structure ``best`` identified again without each fold of the identification
+    maneuvers (:attr:`CoefficientResult.fold_models`). The folds depend only on the
+    maneuvers and the seed, so every coefficient's are the same: a derivative that two
+    models make (``CL_alpha`` from CX and CZ) is taken from refits on the same data."""
+    k = min(settings.derivative_folds, int(np.unique(mans).size))
+    if k < MIN_FOLDS:
+        return []
+    folds = fold_by_maneuver(mans, k, seed=settings.seed)
+    out = []
+    for f in range(k):
+        keep = folds != f
+        try:
+            out.append(fit_structure(best, {v: x[keep] for v, x in columns.items()},
+                                     y[keep], settings.selection, prior_degree=prior_degree))
+        except SimplexSplineError:
+            out.append(None)
+    return out
+
+
+def _derivative_errors(results: Mapping, ident):
+    """:attr:`Identification.derivatives`, or None without fold models."""
+    k = max((len(r.fold_models) for r in results.values()), default=0)
+    if k < MIN_FOLDS:
+        return None
+    models = {c: r.model for c, r in results.items()}
+    folds = [{c: (r.fold_models[f] if f < len(r.fold_models) else None)
+              for c, r in results.items()} for f in range(k)]
+    return jackknife_derivatives(models, folds, reference=reference_conditions(models, ident))
+
+
+#: A primary derivative's sign counts as undetermined when zero lies within this many
+#: jackknife standard errors of it.
+SIGN_SIGMAS = 2.0
+
+
+def _sign_note(table) -> str:
+    """The note naming the primary derivatives (``Cm_alpha``, ``Cl_p``, ...) whose sign
+    the data do not determine, or ''."""
+    rows = primary_derivatives(table)
+    bad = rows[np.abs(rows["value"]) < SIGN_SIGMAS * rows["standard_error"]]
+    if bad.empty:
+        return ""
+    parts = [f"{n} {r.value:+.3g} +- {r.standard_error:.2g} {r.unit}" for n, r in bad.iterrows()]
+    return ("the data do not determine the sign of " + "; ".join(parts)
+            + f" (at the reference condition; jackknife standard errors over "
+              f"{table.attrs['folds']} folds of identification maneuvers, zero within "
+              f"{SIGN_SIGMAS:g} of them; summary.json 'derivatives'): fly maneuvers that "
+              "move these variables on their own, or treat the values as unknown")
 
 
 def _excitation_where_covered(c: str, measured, predicted, covered, maneuvers, r2: float,

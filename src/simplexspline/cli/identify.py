@@ -159,6 +159,10 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print()
         print(result.table())
+        derivs = result.derivative_table()
+        if derivs:
+            print()
+            print(derivs)
         rejected = (result.provenance.get("reconstruction") or {}).get("rejected") or {}
         if rejected:
             shown = "; ".join(f"maneuver {k}: {v}" for k, v in list(rejected.items())[:5])

@@ -69,10 +69,12 @@ def _fig_derivative_maps(r, models: dict, ref: dict) -> Figure | None:
                   "grey: outside the model's domain")
 
 
-def _derivative_section(models: dict, ident, slot) -> list:
+def _derivative_section(models: dict, ident, slot, jackknife=None) -> list:
     """The 'Stability and control derivatives' section: a table at the reference
     condition and figures across the envelope (blocks of
-    :mod:`~simplexspline.aero.report.document`; ``slot`` queues a figure)."""
+    :mod:`~simplexspline.aero.report.document`; ``slot`` queues a figure). ``jackknife``:
+    identify's table of the derivatives' standard errors
+    (:attr:`~simplexspline.aero.identify.Identification.derivatives`), or None."""
     ref = reference_conditions(models, ident)
     at_ref = derivatives(models, None, reference=ref)
     rows = []
@@ -80,9 +82,15 @@ def _derivative_section(models: dict, ident, slot) -> list:
         if not d["in_model"]:
             continue
         value = float(at_ref[name].iloc[0])
-        rows.append([d["coefficient"], name, _fmt(value, ".4g"), d["unit"],
-                     "" if bool(at_ref[f"inside_{d['coefficient']}"].iloc[0])
-                     else "outside the domain"])
+        se = float(jackknife.loc[name, "standard_error"]) \
+            if jackknife is not None and name in jackknife.index else float("nan")
+        note = "" if bool(at_ref[f"inside_{d['coefficient']}"].iloc[0]) \
+            else "outside the domain"
+        if abs(value) < 2 * se:
+            note = ", ".join(filter(None, (note, "sign not determined (zero within 2 "
+                                                 "standard errors)")))
+        rows.append([d["coefficient"], name, _fmt(value, ".4g"),
+                     _fmt(se, ".2g") if np.isfinite(se) else "", d["unit"], note])
     cond = ", ".join(f"{v} = {_fmt(ref[v] * _unit(v)[1], '.3g')} {_unit(v)[0]}"
                      for v in ref)
     text = ("Exact partial derivatives of the identified models (spline gradients through "
@@ -90,12 +98,17 @@ def _derivative_section(models: dict, ident, slot) -> list:
             "angles and surfaces, per unit Mach, and per non-dimensional rate for phat = "
             "pb/2V, qhat = qc/2V, rhat = rb/2V (the classical Cl_p, Cm_q, Cn_r). Variables "
             "a model does not have are left out (their derivatives are 0). Reference "
-            f"condition (identification-data medians): {cond}. docs/derivatives.md; "
+            f"condition (identification-data medians): {cond}. Standard errors: the "
+            "delete-a-group jackknife over "
+            + (f"{jackknife.attrs['folds']} folds" if jackknife is not None else "folds")
+            + " of identification maneuvers (each model's structure identified again "
+            "without each fold; conditional on the structure). docs/derivatives.md; "
             "'simplexspline derivatives OUTDIR' writes them as a table.")
-    head = ["coefficient", "derivative", "at the reference", "unit", "note"]
+    head = ["coefficient", "derivative", "at the reference", "standard error", "unit",
+            "note"]
     return [Heading(2, "Stability and control derivatives", "derivatives"),
             Paragraph(text),
-            Table(head, rows, left=(0, 1, 3, 4)),
+            Table(head, rows, left=(0, 1, 4, 5)),
             *(slot(f"{c} derivatives", _fig_derivatives, c, m, ident, ref)
               for c, m in models.items()),
             slot("derivative maps", _fig_derivative_maps, models, ref)]

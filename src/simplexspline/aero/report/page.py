@@ -438,7 +438,7 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
     for c, res in identification.results.items():
         blocks += _coefficient_section(c, res, identification, ident, valid, slot)
     blocks += _derivative_section({c: res.model for c, res in identification.results.items()},
-                                  ident, slot)
+                                  ident, slot, identification.derivatives)
 
     rendered = _render(jobs, workers, say)
     (outdir / "figures").mkdir(exist_ok=True)
