@@ -1318,17 +1318,29 @@ def _fold_models(best: Structure, columns: Mapping, y: np.ndarray, mans: np.ndar
     """The structure ``best`` identified again without each fold of the identification
     maneuvers (:attr:`CoefficientResult.fold_models`). The folds depend only on the
     maneuvers and the seed, so every coefficient's are the same: a derivative that two
-    models make (``CL_alpha`` from CX and CZ) is taken from refits on the same data."""
+    models make (``CL_alpha`` from CX and CZ) is taken from refits on the same data.
+
+    The refits use every k-th sample, at most ``max_samples`` of them, as the search's
+    cross-validation does: at 100 Hz neighbouring samples carry nearly the same
+    information, and the main job's five refits per coefficient on all 190,562 samples
+    took it from 77.0 to 87.1 s. The standard error is then that of the estimator on
+    those samples (no smaller than the delivered model's)."""
     k = min(settings.derivative_folds, int(np.unique(mans).size))
     if k < MIN_FOLDS:
         return []
-    folds = fold_by_maneuver(mans, k, seed=settings.seed)
+    step = max(1, int(np.ceil(len(y) / settings.selection.max_samples)))
+    cols = {v: np.asarray(x)[::step] for v, x in columns.items()}
+    ys, ms = np.asarray(y)[::step], np.asarray(mans)[::step]
+    k = min(k, int(np.unique(ms).size))
+    if k < MIN_FOLDS:
+        return []
+    folds = fold_by_maneuver(ms, k, seed=settings.seed)
     out = []
     for f in range(k):
         keep = folds != f
         try:
-            out.append(fit_structure(best, {v: x[keep] for v, x in columns.items()},
-                                     y[keep], settings.selection, prior_degree=prior_degree))
+            out.append(fit_structure(best, {v: x[keep] for v, x in cols.items()},
+                                     ys[keep], settings.selection, prior_degree=prior_degree))
         except SimplexSplineError:
             out.append(None)
     return out
