@@ -9,7 +9,9 @@ aircraft, 6 and 12 test points, still air and light turbulence, seeds that the d
 were not developed on, and both mapping variants (the maneuver list, and segments found
 by excitation). Prints one row per course and variant, and the totals: negative R^2,
 geometric mean of RMS vs truth / noise, CL_alpha and Cm_alpha at the reference condition
-against the simulator's.
+against the simulator's, and identify's jackknife standard errors of the two (at the
+identification data's medians): how often the truth lies within two of them, and how
+often a wrong sign of Cm_alpha goes unflagged (zero outside two standard errors).
 
 Usage::
 
@@ -49,9 +51,12 @@ def main() -> None:
         ap.error(f"unknown variant(s) {unknown or variants}: use excitation, list or both")
     warnings.simplefilter("ignore")
     head = ("| course | variant | " + " | ".join(f"{c} R2 (true/noise)" for c in COEF)
-            + " | CL_alpha (truth) | Cm_alpha (truth) | s (course) |")
+            + " | CL_alpha (truth) | Cm_alpha (truth) | jackknife CL_alpha; Cm_alpha "
+            "| s (course) |")
     lines = [head, "|---" * (head.count("|") - 1) + "|"]
     r2s, ratios = [], []
+    within = {"CL_alpha": [], "Cm_alpha": []}
+    wrong_sign = {"flagged": 0, "unflagged": 0}
     t_all = time.perf_counter()
     for spec in args.courses.split(";"):
         aircraft, points, seed, turbulence = spec.split()
@@ -77,9 +82,16 @@ def main() -> None:
                              + f" ({e['rms_true_over_noise']:.2f})")
             cl = r.get("CL_alpha", [np.nan])[0]
             cm = (r.get("Cm_alpha") or [np.nan])[0]
+            jack = []
+            for n, (v, se) in r.get("jackknife", {}).items():
+                within[n].append(abs(v - truth[n]) <= 2 * se)
+                jack.append(f"{v:.2f} +- {se:.2f}")
+                if n == "Cm_alpha" and np.sign(v) != np.sign(truth[n]):
+                    wrong_sign["flagged" if abs(v) < 2 * se else "unflagged"] += 1
             lines.append(f"| {spec.strip()} | {r['variant']} | " + " | ".join(cells)
                          + f" | {cl:.2f} ({truth['CL_alpha']:.2f}) | {cm:.2f} "
-                         f"({truth['Cm_alpha']:.2f}) | {time.perf_counter() - t0:.0f} |")
+                         f"({truth['Cm_alpha']:.2f}) | {'; '.join(jack) or '-'} "
+                         f"| {time.perf_counter() - t0:.0f} |")
         print(lines[-1], flush=True)
     print()
     print("\n".join(lines))
@@ -87,6 +99,12 @@ def main() -> None:
     print(f"\n{len(r2s)} models: {int((r2s < 0).sum())} with a negative validation R^2; "
           f"geometric mean of RMS vs truth / noise {np.exp(np.mean(np.log(ratios))):.3f}; "
           f"{time.perf_counter() - t_all:.0f} s")
+    for n, hits in within.items():
+        if hits:
+            print(f"{n}: the truth within two jackknife standard errors in {sum(hits)} of "
+                  f"{len(hits)}")
+    print(f"Cm_alpha of the wrong sign: {wrong_sign['flagged']} flagged (zero within two "
+          f"standard errors), {wrong_sign['unflagged']} not")
 
 
 if __name__ == "__main__":

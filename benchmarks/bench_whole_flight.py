@@ -191,6 +191,11 @@ def run_variant(record: Path, variant: str, flown: list, legs: list, truth: dict
     if "CX" in models and "CZ" in models:
         out["CL_alpha"] = lift_slope(models, ref).tolist()[:1] + lift_slope(models, at).tolist()
     out["t_derivatives"] = time.perf_counter() - t0
+    # identify's own: at the identification data's medians, with the jackknife's errors
+    jack = res.derivatives
+    out["jackknife"] = {} if jack is None else {
+        n: (float(jack.loc[n, "value"]), float(jack.loc[n, "standard_error"]))
+        for n in ("CL_alpha", "Cm_alpha") if n in jack.index}
     out["truth"] = truth
     return out
 
@@ -227,6 +232,10 @@ def table(results: list, sim: dict) -> str:
         lambda r: f"{r['CL_alpha'][0]:.2f}; " + ", ".join(f"{x:.2f}" for x in r["CL_alpha"][1:]))
     row(f"Cm_alpha [1/rad] reference; per leg (truth {sim['truth']['Cm_alpha']:.2f})",
         lambda r: f"{r['Cm_alpha'][0]:.2f}; " + ", ".join(f"{x:.2f}" for x in r["Cm_alpha"][1:]))
+    row("CL_alpha, Cm_alpha [1/rad] at the identification data's medians +- jackknife "
+        "standard error (identify's)",
+        lambda r: "; ".join(f"{v:.2f} +- {se:.2f}" for v, se in
+                            (r["jackknife"][n] for n in ("CL_alpha", "Cm_alpha"))))
     row("seconds: import, identify (reconstruct + search + fit), derivatives",
         lambda r: f"{r['t_import']:.1f}, {r['t_identify']:.0f}, {r['t_derivatives']:.1f}")
     return "\n".join(lines)
