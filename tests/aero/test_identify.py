@@ -147,6 +147,26 @@ def test_derivatives_come_with_their_jackknife_standard_errors(result):
     assert re.search(r"Cm_alpha\s+[-+][0-9.]+ \+- [0-9.e-]+\s+1/rad", text), text
 
 
+def test_the_derivatives_command_prints_identifys_standard_errors(result, tmp_path, capsys,
+                                                                no_report):
+    from simplexspline.cli import main
+
+    out = result.save(tmp_path / "out", report=False)
+    assert main(["derivatives", str(out), "-o", str(tmp_path / "d.csv")]) == 0
+    text = capsys.readouterr().out
+    assert "identify's jackknife standard errors over 5 folds of maneuvers" in text
+    row = result.derivatives.loc["Cm_alpha"]
+    assert f"Cm_alpha = {row['value']:.4g} +- {row['standard_error']:.2g} 1/rad" in text
+    # a summary without them (an older output) or unreadable: said, never a crash
+    summary = out / "summary.json"
+    summary.write_text(summary.read_text().replace('"derivatives"', '"other"'))
+    assert main(["derivatives", str(out), "-o", str(tmp_path / "d.csv")]) == 0
+    assert "jackknife" not in capsys.readouterr().out
+    summary.write_text("{not json")
+    assert main(["derivatives", str(out), "-o", str(tmp_path / "d.csv")]) == 0
+    assert "no readable jackknife standard errors" in capsys.readouterr().out
+
+
 def test_no_folds_no_standard_errors(table):
     settings = IdentificationSettings(coefficients=("Cm",), selection=FAST,
                                       derivative_folds=0)

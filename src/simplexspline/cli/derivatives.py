@@ -19,6 +19,7 @@ import numpy as np
 
 from simplexspline._files import atomic_write, jsonable, write_text
 from simplexspline._version import __version__
+from simplexspline.aero.derivatives.jackknife import PRIMARY
 from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
 from simplexspline.aero.derivatives.stability import derivatives, load_models, long_table
 from simplexspline.aero.variables import UNITS
@@ -341,6 +342,36 @@ def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) 
         if items:
             flag = "" if bool(ref[f"inside_{c}"].iloc[0]) else "  (outside the domain)"
             print(f"  {c}: " + ", ".join(items) + flag)
+    for line in _jackknife_lines(args.models, set(models)):
+        print(line)
+
+
+def _jackknife_lines(paths, coefficients: set) -> list:
+    """identify's jackknife standard errors (``summary.json`` of an identification output
+    among ``paths``, ``derivatives``) of the primary derivatives of ``coefficients``."""
+    for path in paths:
+        summary = Path(path) / "summary.json"
+        if not summary.is_file():
+            continue
+        try:
+            block = json.loads(summary.read_text()).get("derivatives")
+            if block is None:       # an output of before stop 57, or derivative_folds = 0
+                return []
+            values = block["values"]
+            rows = [(n, v) for n in PRIMARY if (v := values.get(n)) and v["in_model"]
+                    and (v["coefficient"] in coefficients
+                         or v["coefficient"] in ("CL", "CD") and {"CX", "CZ"} <= coefficients)]
+            ref = ", ".join(f"{k} = {_show(k, float(x))}" for k, x in block["reference"].items())
+            folds = int(block["folds"])
+        except (ValueError, KeyError, TypeError, AttributeError):
+            return [f"  ({summary}: no readable jackknife standard errors)"]
+        if not rows:
+            return []
+        return ([f"identify's jackknife standard errors over {folds} folds of maneuvers, at "
+                 f"the identification data's medians ({ref}; {summary}):"]
+                + [f"  {n} = {v['value']:.4g} +- {v['standard_error']:.2g} {v['unit']}"
+                   for n, v in rows])
+    return []
 
 
 def _show(var: str, value: float) -> str:
