@@ -1341,8 +1341,9 @@ def _fold_models(best: Structure, columns: Mapping, y: np.ndarray, mans: np.ndar
         try:
             out.append(fit_structure(best, {v: x[keep] for v, x in cols.items()},
                                      ys[keep], settings.selection, prior_degree=prior_degree))
-        except SimplexSplineError:
-            out.append(None)
+        except (SimplexSplineError, np.linalg.LinAlgError, ValueError, FloatingPointError):
+            out.append(None)       # a fold the structure cannot be fitted without: it
+                                   # does not count (an auxiliary result: never a crash)
     return out
 
 
@@ -1354,7 +1355,13 @@ def _derivative_errors(results: Mapping, ident):
     models = {c: r.model for c, r in results.items()}
     folds = [{c: (r.fold_models[f] if f < len(r.fold_models) else None)
               for c, r in results.items()} for f in range(k)]
-    return jackknife_derivatives(models, folds, reference=reference_conditions(models, ident))
+    try:
+        return jackknife_derivatives(models, folds,
+                                     reference=reference_conditions(models, ident))
+    except (SimplexSplineError, ValueError) as exc:   # the models stand without them
+        warnings.warn(f"the derivatives' standard errors could not be computed ({exc}); "
+                      "the models are not affected", ThinDataWarning, stacklevel=3)
+        return None
 
 
 #: A primary derivative's sign counts as undetermined when zero lies within this many
