@@ -749,3 +749,17 @@ def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named
                            cells=np.zeros(120, dtype=int))
     assert all(v == 1.0 for v in both.values())
     assert _untested(y, man, both) == []
+
+
+def test_a_failing_jackknife_is_said_and_the_models_stand(table, monkeypatch):
+    identify_module = importlib.import_module("simplexspline.aero.identify")
+
+    def broken(*args, **kwargs):
+        raise InputError("a broken refit")
+
+    monkeypatch.setattr(identify_module, "jackknife_derivatives", broken)
+    res = identify(table, settings=IdentificationSettings(coefficients=("Cm",),
+                                                          selection=FAST))
+    assert res.derivatives is None and "Cm" in res.results
+    assert any("standard errors could not be computed (a broken refit)" in w
+               for w in res.warnings)

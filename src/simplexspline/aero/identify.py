@@ -602,12 +602,11 @@ def identify(df, metadata: Mapping | None = None, *,
     if source:
         prov["source"] = source
     left = {c: m for c, m in left.items() if "left_out" in results[c].validation}
-    table = _derivative_errors(results, ident)
-    if table is not None:
-        unsure = _sign_note(table)
-        if unsure:
-            warnings.warn(unsure, ThinDataWarning, stacklevel=2)
-            notes.append(unsure)
+    table, failed = _derivative_errors(results, ident)
+    unsure = failed or ("" if table is None else _sign_note(table))
+    if unsure:
+        warnings.warn(unsure, ThinDataWarning, stacklevel=2)
+        notes.append(unsure)
     out = Identification(results, ident, valid, settings, meta, prov, notes, left, table)
     _record_provenance(results, out, meta, settings, prov)
     return out
@@ -1347,21 +1346,21 @@ def _fold_models(best: Structure, columns: Mapping, y: np.ndarray, mans: np.ndar
     return out
 
 
-def _derivative_errors(results: Mapping, ident):
-    """:attr:`Identification.derivatives`, or None without fold models."""
+def _derivative_errors(results: Mapping, ident) -> tuple:
+    """:attr:`Identification.derivatives` (None without fold models, or where the
+    jackknife fails) and a note ('' unless it failed)."""
     k = max((len(r.fold_models) for r in results.values()), default=0)
     if k < MIN_FOLDS:
-        return None
+        return None, ""
     models = {c: r.model for c, r in results.items()}
     folds = [{c: (r.fold_models[f] if f < len(r.fold_models) else None)
               for c, r in results.items()} for f in range(k)]
     try:
         return jackknife_derivatives(models, folds,
-                                     reference=reference_conditions(models, ident))
+                                     reference=reference_conditions(models, ident)), ""
     except (SimplexSplineError, ValueError) as exc:   # the models stand without them
-        warnings.warn(f"the derivatives' standard errors could not be computed ({exc}); "
-                      "the models are not affected", ThinDataWarning, stacklevel=3)
-        return None
+        return None, (f"the derivatives' standard errors could not be computed ({exc}); "
+                      "the models are not affected")
 
 
 #: A primary derivative's sign counts as undetermined when zero lies within this many
