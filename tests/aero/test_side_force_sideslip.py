@@ -13,6 +13,7 @@ from simplexspline.aero.modelling.structure import Structure
 from simplexspline.aero.selection.search import PLAIN_FIT, fit_structure
 from simplexspline.aero.selection.side_force_sideslip import (
     MAX_CORRECTION,
+    LinearSideForce,
     REFEREE_GAIN,
     choose_sideslip,
     cross_fitted_sideslip,
@@ -226,3 +227,83 @@ def test_a_side_force_that_cannot_give_the_sideslip_is_said_not_raised(monkeypat
     assert set(res.results) == {"CY", "Cn"} and "sideslip" not in res.provenance
     assert any("the side force cannot give the sideslip (the CY model's dCY/dbeta is 0"
                in n for n in res.warnings)
+
+
+def _proxy_table(seed=0) -> pd.DataFrame:
+    """Maneuvers whose side force follows the air's sideslip, the rudder and the yaw rate;
+    the kinematic sideslip misses a lateral gust, and the roll rate follows that gust (as
+    the aircraft's response to it does): a side-force model that takes the roll rate uses
+    it for the sideslip the kinematics missed, and its dCY/dbeta falls. Two maneuvers in
+    eight are rudder inputs with a large sideslip."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(600) * 0.05
+    parts = []
+    for m in range(8):
+        rudder = m in (2, 5)
+        amp = 0.05 if rudder else 0.004
+        f, ph = rng.uniform(0.2, 0.6, 3), rng.uniform(0, 2 * np.pi, 3)
+        beta_air = amp * np.sin(2 * np.pi * f[0] * t + ph[0])
+        gust = 0.006 * np.sin(2 * np.pi * f[1] * t + ph[1])
+        dr = (0.08 if rudder else 0.005) * np.sin(2 * np.pi * f[2] * t + ph[2])
+        rhat = 0.3 * np.gradient(beta_air, t) * 0.05 + 0.001 * rng.standard_normal(t.size)
+        true_beta = beta_air + gust
+        phat = 0.5 * gust + 1.5e-3 * rng.standard_normal(t.size)
+        cy = -0.9 * true_beta + 0.15 * dr - 0.3 * rhat
+        parts.append(pd.DataFrame({
+            "maneuver": m, "t": t, "beta": beta_air, "true_beta": true_beta, "dr": dr,
+            "rhat": rhat, "phat": phat, "da": 0.01 * np.sin(0.7 * t + m),
+            "CY": cy + 5e-4 * rng.standard_normal(t.size),
+            "Cl": -0.08 * true_beta - 0.4 * phat + 5e-4 * rng.standard_normal(t.size),
+            "Cn": 0.1 * true_beta - 0.06 * dr - 0.2 * rhat
+            + 5e-4 * rng.standard_normal(t.size)}))
+    return pd.concat(parts, ignore_index=True)
+
+
+def test_the_linear_side_force_keeps_the_air_s_slope_where_a_proxy_takes_it():
+    df = _proxy_table()
+    lin = LinearSideForce.fit(df)
+    assert lin.terms == ("1", "beta", "dr", "rhat") and set(lin.maneuvers) == {2, 5}
+    assert lin.slope == pytest.approx(-0.9, abs=0.05)
+    # CY's best model on the kinematic sideslip takes the roll rate for the missed gust
+    cols = {c: df[c].to_numpy() for c in ("beta", "dr", "rhat", "phat")}
+    model = fit_structure(Structure("CY", ("beta",), 0, -1, (1,),
+                                    multipliers=("1", "beta", "dr", "rhat", "phat")),
+                          cols, df["CY"].to_numpy())
+    through_model = side_force_sideslip(model, df, np.ones(len(df), bool))
+    through_linear = side_force_sideslip(lin, df, np.ones(len(df), bool))
+    truth = df["true_beta"].to_numpy()
+    assert _rms(through_linear.beta - truth) < 0.3 * _rms(through_model.beta - truth)
+    assert _rms(through_linear.beta - truth) < 0.3 * _rms(df["beta"] - truth)
+    # the roll and yaw moments say so: the referee takes the linear model's sideslip
+    rows = np.ones(len(df), bool)
+    choice = choose_sideslip(model, df, df, rows, rows, PLAIN_FIT)
+    assert choice.used and choice.source == "linear"
+    assert choice.slope == pytest.approx(lin.slope)
+    assert set(choice.candidates) == {"model", "linear"}
+    assert choice.candidates["linear"]["referee_error_ratios"]["Cn"] < \
+        choice.candidates["model"]["referee_error_ratios"]["Cn"]
+
+
+def test_a_linear_side_force_that_cannot_give_the_sideslip_is_named():
+    df = _proxy_table()
+    with pytest.raises(InputError, match="needs the columns maneuver, beta and CY"):
+        LinearSideForce.fit(df.drop(columns=["CY"]))
+    with pytest.raises(InputError, match="dCY/dbeta is 0: it cannot give the sideslip"):
+        LinearSideForce.fit(df.assign(CY=0.0))
+    with pytest.raises(InputError, match="finite samples for 4 terms"):
+        LinearSideForce.fit(df.iloc[:3])
+
+
+
+def test_choose_sideslip_goes_on_without_the_linear_candidate(monkeypatch):
+    """Where the linear side force cannot be made, CY's model's sideslip is judged alone,
+    and the choice says why the other is missing."""
+    def refuse(_data):
+        raise InputError("the linear side-force model's dCY/dbeta is 0")
+
+    monkeypatch.setattr(LinearSideForce, "fit", staticmethod(refuse))
+    df = _gusty_table()
+    rows = np.ones(len(df), bool)
+    choice = choose_sideslip(_cy_model(df), df, df, rows, rows, PLAIN_FIT)
+    assert choice.used and choice.source == "model"
+    assert "dCY/dbeta is 0" in choice.candidates["linear"]["not made"]

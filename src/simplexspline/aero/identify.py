@@ -765,9 +765,14 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, splits: _Split
     for c in others:
         for k in (f"model_{c}", f"inside_{c}"):
             valid[k] = frames["validation"][k]
-    record = {"source": "side force through CY's model (beta + (CY - CY_model) / "
+    through = ("CY's model" if choice.source == "model" else
+               "a side force linear in the sideslip, rudder and yaw rate, fitted on the "
+               "maneuvers that move the sideslip most")
+    record = {"source": f"side force through {through} (beta + (CY - CY_model) / "
                         "(dCY/dbeta); cross-fitted by maneuver on the identification data) "
                         "in the maneuvers with gusts; CY on the kinematic sideslip",
+              "through": choice.source,
+              "candidates": jsonable(choice.candidates),
               "maneuvers": sorted(gusty, key=lambda m: (len(m), m)),
               "dCY_dbeta_per_rad": round(choice.slope, 4),
               "correction_rms_rad": round(choice.correction_rms, 6),
@@ -775,7 +780,7 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, splits: _Split
               "referee_error_ratios": {c: round(r, 4) for c, r in choice.ratios.items()},
               "coefficients": list(others)}
     note = (head + f"{', '.join(others)} identified on the sideslip that the side force "
-            f"gives there through CY's model (dCY/dbeta {choice.slope:.3g} /rad; correction "
+            f"gives there through {through} (dCY/dbeta {choice.slope:.3g} /rad; correction "
             f"{choice.correction_rms:.2g} rad RMS; column beta_side_force; it explains the "
             f"roll and yaw moments better out of sample: error ratios {judged}); CY on the "
             "kinematic sideslip")
