@@ -307,3 +307,40 @@ def test_choose_sideslip_goes_on_without_the_linear_candidate(monkeypatch):
     choice = choose_sideslip(_cy_model(df), df, df, rows, rows, PLAIN_FIT)
     assert choice.used and choice.source == "model"
     assert "dCY/dbeta is 0" in choice.candidates["linear"]["not made"]
+
+
+def test_identify_says_cy_s_slope_is_attenuated_where_the_linear_side_force_is_taken():
+    df = _proxy_table(1)
+    df["maneuver_type"] = np.where(df["maneuver"].isin([2, 5]), "doublet-rudder", "turn")
+    rng = np.random.default_rng(7)
+    for c in ("CX", "CZ", "Cm", "qhat"):          # a complete reconstructed table
+        df[c] = 1e-3 * rng.standard_normal(len(df))
+    df["alpha"], df["mach"] = 0.05, 0.5
+    df.attrs = {"aircraft": "synthetic", "S": 20.0, "b": 10.0, "cbar": 2.0}
+    settings = IdentificationSettings(
+        coefficients=("CY", "Cn"), select=False, reconstruct="never",
+        structures={"CY": Structure("CY", ("beta",), 0, -1, (1,),
+                                    multipliers=("1", "beta", "dr", "rhat", "phat")),
+                    "Cn": Structure("Cn", ("beta",), 0, -1, (1,),
+                                    multipliers=("1", "beta", "dr", "rhat"))})
+    res = identify(_reconstructed(df), settings=settings)
+    record = res.provenance["sideslip"]
+    assert record["through"] == "linear" and set(record["candidates"]) == {"model", "linear"}
+    note = next(n for n in res.warnings if "no sideslip vane and gusts" in n)
+    assert "a side force linear in the sideslip, rudder and yaw rate" in note
+    # CY's own slope is the air's here (-0.90 both): no word on attenuation
+    assert "CY's own model has dCY/dbeta" not in note
+
+
+def test_the_note_says_when_cy_s_own_slope_is_attenuated():
+    from simplexspline.aero.identify import _attenuation_note
+    from simplexspline.aero.selection.side_force_sideslip import SideslipChoice
+
+    def choice(source, model_slope, slope=-0.89):
+        return SideslipChoice(True, np.zeros(3), np.zeros(3), {}, slope, 0.0, 0, source,
+                              {"model": {"dCY_dbeta": model_slope}})
+
+    note = _attenuation_note(choice("linear", -0.21))
+    assert "CY's own model has dCY/dbeta -0.21 /rad" in note and "errors in variables" in note
+    assert _attenuation_note(choice("linear", -0.85)) == ""     # within 20 %: nothing said
+    assert _attenuation_note(choice("model", -0.21, -0.21)) == ""

@@ -783,9 +783,22 @@ def _fit_all(structures: Mapping, ident, valid, columns: Mapping, splits: _Split
             f"gives there through {through} (dCY/dbeta {choice.slope:.3g} /rad; correction "
             f"{choice.correction_rms:.2g} rad RMS; column beta_side_force; it explains the "
             f"roll and yaw moments better out of sample: error ratios {judged}); CY on the "
-            "kinematic sideslip")
+            "kinematic sideslip" + _attenuation_note(choice))
     log(f"note: {note}")
     return {c: {**first, **rest}[c] for c in coefs}, notes + [note] + more, record
+
+
+def _attenuation_note(choice) -> str:
+    """Where the linear side force was chosen and CY's own model has a markedly smaller
+    dCY/dbeta: what that says of CY's derivatives, or ''."""
+    model = (choice.candidates.get("model") or {}).get("dCY_dbeta")
+    if choice.source != "linear" or model is None or not np.isfinite(model) \
+            or abs(model) >= 0.8 * abs(choice.slope):
+        return ""
+    return (f"; CY's own model has dCY/dbeta {model:.3g} /rad there: fitted on the kinematic "
+            "sideslip, which misses the gusts, its derivatives along the sideslip are too "
+            "small (errors in variables) and its roll-rate and aileron terms take over part "
+            "of the sideslip's effect")
 
 
 def _thrust_note(data, settings: IdentificationSettings, rec_note: Mapping,
