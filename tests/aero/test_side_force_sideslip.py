@@ -326,6 +326,7 @@ def test_identify_says_cy_s_slope_is_attenuated_where_the_linear_side_force_is_t
     res = identify(_reconstructed(df), settings=settings)
     record = res.provenance["sideslip"]
     assert record["through"] == "linear" and set(record["candidates"]) == {"model", "linear"}
+    assert "fitted once on the identification data" in record["source"]
     note = next(n for n in res.warnings if "no sideslip vane and gusts" in n)
     assert "a side force linear in the sideslip, rudder and yaw rate" in note
     # CY's own slope is the air's here (-0.90 both): no word on attenuation
