@@ -167,6 +167,42 @@ def test_the_derivatives_command_prints_identifys_standard_errors(result, tmp_pa
     assert "no readable jackknife standard errors" in capsys.readouterr().out
 
 
+def test_the_derivatives_command_gives_standard_errors_at_every_condition(result, tmp_path,
+                                                                        no_report):
+    """The refits travel with the output (models/jackknife); the derivatives command reads
+    them and writes a standard error per derivative and condition."""
+    from simplexspline.aero.derivatives.jackknife import load_fold_models
+    from simplexspline.cli import main
+
+    out = result.save(tmp_path / "out", report=False)
+    folds = load_fold_models(out)
+    assert len(folds) == 5 and all(set(f) == {"CZ", "Cm"} for f in folds)
+    csv = tmp_path / "d.csv"
+    assert main(["derivatives", str(out), "-o", str(csv), "-q"]) == 0
+    import pandas as pd
+
+    table = pd.read_csv(csv)
+    se = table["se_Cm_alpha"].to_numpy()
+    # NaN only at the ends of the sweep, beyond the boxes of most refits (narrower data)
+    finite = np.isfinite(se)
+    assert finite.mean() > 0.9 and np.all(se[finite] > 0)
+    assert finite[len(se) // 4: 3 * len(se) // 4].all()
+    meta = json.loads((tmp_path / "d.csv.json").read_text())
+    assert meta["columns"]["se_Cm_alpha"]["kind"] == "standard_error"
+    # at identify's reference condition they are the summary's
+    points = tmp_path / "ref.csv"
+    pd.DataFrame([result.derivatives.attrs["reference"]]).to_csv(points, index=False)
+    assert main(["derivatives", str(out), "-o", str(csv), "-q", "--points", str(points)]) == 0
+    assert pd.read_csv(csv)["se_Cm_alpha"].iloc[0] == pytest.approx(
+        result.derivatives.loc["Cm_alpha", "standard_error"], rel=1e-6)
+    long = tmp_path / "long.csv"
+    assert main(["derivatives", str(out), "-o", str(long), "-q", "--long"]) == 0
+    assert "standard_error" in pd.read_csv(long).columns
+    # model files alone (no output directory): no refits, no standard errors
+    assert main(["derivatives", str(out / "models" / "Cm.json"), "-o", str(csv), "-q"]) == 0
+    assert not [c for c in pd.read_csv(csv).columns if c.startswith("se_")]
+
+
 def test_no_folds_no_standard_errors(table):
     settings = IdentificationSettings(coefficients=("Cm",), selection=FAST,
                                       derivative_folds=0)
@@ -263,7 +299,9 @@ def test_save_never_touches_foreign_files(result, tmp_path, no_report):
     (d / "notes.txt").write_text("mine")
     result.save(d, model_format="npz")
     assert (d / "notes.txt").read_text() == "mine"
-    assert _names(d / "models") == ["CZ.npz", "Cm.npz"]
+    assert _names(d / "models") == ["CZ.npz", "Cm.npz", "jackknife"]
+    assert _names(d / "models" / "jackknife") == [f"{c}-{f}.npz" for c in ("CZ", "Cm")
+                                                  for f in range(5)]
     assert not [n for n in _names(d) if n.startswith(".identify.")]
 
 

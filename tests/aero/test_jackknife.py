@@ -12,6 +12,7 @@ from simplexspline.aero.derivatives.jackknife import (
     MIN_FOLDS,
     jackknife_derivatives,
     primary_derivatives,
+    with_standard_errors,
 )
 from simplexspline.aero.modelling.structure import Structure
 from simplexspline.aero.selection.search import fit_structure
@@ -132,3 +133,20 @@ def test_bad_input_is_named():
         jackknife_derivatives({}, refits, reference=REFERENCE)
     with pytest.raises(InputError, match=r"coefficient\(s\) \['Cl'\] that the models do not"):
         jackknife_derivatives(models, [{"Cl": models["Cm"]}], reference=REFERENCE)
+
+
+def test_standard_errors_at_every_condition_agree_with_the_reference_ones():
+    models, refits = _fits(_flight(), 5)
+    at_ref = jackknife_derivatives(models, refits, reference=REFERENCE)
+    one = with_standard_errors(derivatives(models, reference=REFERENCE), refits)
+    for name in ("Cm_alpha", "Cm_de", "Cm_q"):
+        assert one[f"se_{name}"].iloc[0] == pytest.approx(at_ref.loc[name, "standard_error"])
+    grid = {"alpha": np.linspace(0.0, 0.1, 7)}
+    table = with_standard_errors(derivatives(models, grid, reference=REFERENCE), refits,
+                                 grid)
+    assert len(table) == 7 and np.all(np.isfinite(table["se_Cm_alpha"]))
+    # a linear model: the same derivative and error everywhere
+    assert np.ptp(table["se_Cm_alpha"]) < 1e-12
+    assert table.attrs["jackknife_folds"] == 5
+    with pytest.raises(InputError, match="that the models do not"):
+        with_standard_errors(table, [{"Cl": models["Cm"]}])

@@ -26,6 +26,7 @@ import numpy as np
 
 from simplexspline.aero.data.angle_rates import ANGLE_RATE_NAMES, angle_rates
 from simplexspline.aero.derivatives.jackknife import (
+    FOLD_DIR,
     MIN_FOLDS,
     jackknife_derivatives,
     primary_derivatives,
@@ -424,6 +425,11 @@ class Identification:
                 (tmp / "models").mkdir()
                 for c, res in self.results.items():
                     res.model.save(tmp / "models" / f"{c}.{model_format}")
+                    # the jackknife's refits: the derivatives command's standard errors
+                    for f, fold in enumerate(res.fold_models):
+                        if fold is not None:
+                            (tmp / "models" / FOLD_DIR).mkdir(exist_ok=True)
+                            fold.save(tmp / "models" / FOLD_DIR / f"{c}-{f}.{model_format}")
                 (tmp / "summary.json").write_text(
                     json.dumps(jsonable(self.summary()), indent=1, allow_nan=True) + "\n",
                     encoding="utf-8")

@@ -19,7 +19,12 @@ import numpy as np
 
 from simplexspline._files import atomic_write, jsonable, write_text
 from simplexspline._version import __version__
-from simplexspline.aero.derivatives.jackknife import PRIMARY
+from simplexspline.aero.derivatives.jackknife import (
+    FOLD_DIR,
+    PRIMARY,
+    load_fold_models,
+    with_standard_errors,
+)
 from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
 from simplexspline.aero.derivatives.stability import derivatives, load_models, long_table
 from simplexspline.aero.variables import UNITS
@@ -190,6 +195,11 @@ def describe(table, sources) -> dict:
         elif c.startswith("inside_"):
             cols[c] = {"kind": "flag", "unit": "-", "meaning": f"the condition lies in the "
                        f"domain of the {c[7:]} model (a simplex with identification data)"}
+        elif c.startswith("se_") and c[3:] in info:
+            cols[c] = {"kind": "standard_error", "unit": info[c[3:]]["unit"],
+                       "meaning": f"jackknife standard error of {c[3:]} over "
+                       f"{attrs.get('jackknife_folds')} refits without a fold of "
+                       "identification maneuvers each (models/jackknife of the output)"}
         elif c.startswith("samples_"):
             cols[c] = {"kind": "support", "unit": "-", "meaning": "identification samples "
                        f"in the simplex of the {c[8:]} model holding the condition"}
@@ -274,6 +284,10 @@ def run(args: argparse.Namespace) -> int:
         at.update(fixed)
     table = derivatives(models, at, wrt=_split(args.wrt), rates=args.rates,
                         outside=args.outside, geometry=geometry, reference=fixed)
+    folds = _fold_models(args.models, set(models))
+    if folds:
+        table = with_standard_errors(table, folds, at, wrt=_split(args.wrt),
+                                     rates=args.rates, geometry=geometry)
     _write_table(table, out, args.models, args.long)
     if args.plot is not None:
         with warnings.catch_warnings():
@@ -344,6 +358,17 @@ def _print_summary(models, table, out: Path, args, fixed: dict, geometry: dict) 
             print(f"  {c}: " + ", ".join(items) + flag)
     for line in _jackknife_lines(args.models, set(models)):
         print(line)
+
+
+def _fold_models(paths, coefficients: set) -> list:
+    """The jackknife refits of the identification output among ``paths`` (one output:
+    the models' own), restricted to ``coefficients``; [] without them."""
+    outputs = [Path(p) for p in paths if (Path(p) / "models" / FOLD_DIR).is_dir()]
+    if len(outputs) != 1 or len(paths) != 1:
+        return []
+    folds = [{c: m for c, m in f.items() if c in coefficients}
+             for f in load_fold_models(outputs[0])]
+    return [f for f in folds if f]
 
 
 def _jackknife_lines(paths, coefficients: set) -> list:

@@ -26,14 +26,21 @@ five, a standard error is known to about +-35 %).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from simplexspline.aero.derivatives.stability import derivatives
+from simplexspline.aero.modelling.model import AeroModel
 from simplexspline.errors import InputError
 
-__all__ = ["MIN_FOLDS", "PRIMARY", "jackknife_derivatives", "primary_derivatives"]
+__all__ = ["FOLD_DIR", "MIN_FOLDS", "PRIMARY", "jackknife_derivatives", "load_fold_models",
+           "primary_derivatives", "with_standard_errors"]
+
+#: The folder, inside an identification output's ``models/``, that holds the refits
+#: (``<C>-<fold>.json`` or ``.npz``), written by ``Identification.save``.
+FOLD_DIR = "jackknife"
 
 #: Fewest refits with a finite derivative for a standard error (NaN with fewer).
 MIN_FOLDS = 3
@@ -108,12 +115,7 @@ def jackknife_derivatives(models: Mapping, fold_models: Sequence[Mapping], *,
         theta = np.array([f[n] for f in per_fold], dtype=float)
         theta = theta[np.isfinite(theta)]
         g = theta.size
-        if not info[n]["in_model"]:
-            se = 0.0
-        elif g >= MIN_FOLDS:
-            se = float(np.sqrt((g - 1) / g * np.sum((theta - theta.mean()) ** 2)))
-        else:
-            se = float("nan")
+        se = 0.0 if not info[n]["in_model"] else float(_jackknife_se(theta[:, None])[0])
         rows.append({"derivative": n, "coefficient": info[n]["coefficient"],
                      "variable": info[n]["variable"], "unit": info[n]["unit"],
                      "in_model": bool(info[n]["in_model"]),
@@ -122,6 +124,84 @@ def jackknife_derivatives(models: Mapping, fold_models: Sequence[Mapping], *,
     out = pd.DataFrame(rows).set_index("derivative")
     out.attrs = {"reference": ref, "folds": len(fold_models)}
     return out
+
+
+def _jackknife_se(theta: np.ndarray) -> np.ndarray:
+    """Per column of ``theta`` (refits x conditions, NaN where a refit gave none) the
+    jackknife standard error over its finite refits; NaN with fewer than
+    :data:`MIN_FOLDS`."""
+    ok = np.isfinite(theta)
+    g = ok.sum(axis=0)
+    mean = np.where(g > 0, np.nansum(theta, axis=0) / np.maximum(g, 1), np.nan)
+    dev = np.where(ok, theta - mean, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        se = np.sqrt((g - 1) / np.maximum(g, 1) * np.sum(dev ** 2, axis=0))
+    return np.where(g >= MIN_FOLDS, se, np.nan)
+
+
+def with_standard_errors(table: pd.DataFrame, fold_models: Sequence[Mapping], at=None, *,
+                         wrt: Sequence[str] | None = None, rates: str = "native",
+                         geometry: Mapping | None = None) -> pd.DataFrame:
+    """A wide :func:`~simplexspline.aero.derivatives.stability.derivatives` table with a
+    ``se_<name>`` column per derivative: its jackknife standard error at each condition
+    from the refits ``fold_models`` (as :func:`jackknife_derivatives`), evaluated at the
+    table's own conditions (``at`` and ``table.attrs['reference']``, as the table was
+    made). 0 for a variable the model does not take; NaN outside a refit's domain with
+    fewer than :data:`MIN_FOLDS` refits left.
+
+    Raises
+    ------
+    InputError
+        A fold with a coefficient the table's models lack.
+    """
+    info = table.attrs["derivatives"]
+    known = set(table.attrs.get("models", {}))
+    options = {"wrt": wrt, "rates": rates, "geometry": geometry, "outside": "nan",
+               "reference": table.attrs["reference"]}
+    theta = {n: [] for n in info}
+    for fold in fold_models:
+        fold = {c: m for c, m in fold.items() if m is not None}
+        extra = set(fold) - known
+        if extra:
+            raise InputError(f"a fold holds coefficient(s) {sorted(extra)} that the models "
+                             "do not")
+        part = derivatives(fold, at, **options) if fold else None
+        for n, d in info.items():
+            needs = d.get("model_variables") if d["coefficient"] in ("CL", "CD") \
+                else [d["coefficient"]]
+            ok = part is not None and n in part.columns and all(c in fold for c in needs)
+            theta[n].append(part[n].to_numpy(dtype=float) if ok
+                            else np.full(len(table), np.nan))
+    out = table.copy()
+    for n, d in info.items():
+        out[f"se_{n}"] = (np.zeros(len(table)) if not d["in_model"]
+                          else _jackknife_se(np.array(theta[n]).reshape(-1, len(table))))
+    out.attrs = {**table.attrs, "jackknife_folds": len(fold_models)}
+    return out
+
+
+def load_fold_models(outdir, coefficients=None) -> list:
+    """The refits an identification output keeps (``OUTDIR/models/jackknife``), as a list
+    of ``{coefficient: AeroModel}`` per fold; empty when the output has none (written
+    before stop 57, or with ``derivative_folds = 0``).
+
+    Raises
+    ------
+    ModelFileError
+        A refit's file that cannot be read.
+    """
+    folder = Path(outdir) / "models" / FOLD_DIR
+    if not folder.is_dir():
+        return []
+    folds: dict = {}
+    for path in sorted(folder.iterdir()):
+        stem, _, index = path.stem.rpartition("-")
+        if path.suffix.lower() not in (".json", ".npz") or not index.isdigit():
+            continue
+        if coefficients is not None and stem not in coefficients:
+            continue
+        folds.setdefault(int(index), {})[stem] = AeroModel.load(path)
+    return [folds[k] for k in sorted(folds)]
 
 
 def primary_derivatives(table: pd.DataFrame) -> pd.DataFrame:

@@ -619,8 +619,9 @@ def long_table(table, condition_columns: Sequence[str]):
     -------
     pandas.DataFrame
         N x (number of derivatives) rows, columns ``point, <conditions>, coefficient,
-        variable, derivative, value, unit, in_model, inside`` (and ``samples`` when the
-        table has them); the same ``attrs``.
+        variable, derivative, value, unit, in_model, inside`` (and ``samples`` and
+        ``standard_error`` when the table has them: ``samples_<C>``, ``se_<name>``); the
+        same ``attrs``.
     """
     import pandas as pd  # optional dependency (the 'aero' extra)
 
@@ -638,6 +639,8 @@ def long_table(table, condition_columns: Sequence[str]):
         part["inside"] = table[f"inside_{d['coefficient']}"].to_numpy()
         if f"samples_{d['coefficient']}" in table.columns:
             part["samples"] = table[f"samples_{d['coefficient']}"].to_numpy()
+        if f"se_{name}" in table.columns:
+            part["standard_error"] = table[f"se_{name}"].to_numpy()
         parts.append(part)
     out = pd.concat(parts, ignore_index=True)
     out.attrs = dict(table.attrs)
