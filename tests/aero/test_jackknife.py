@@ -150,3 +150,20 @@ def test_standard_errors_at_every_condition_agree_with_the_reference_ones():
     assert table.attrs["jackknife_folds"] == 5
     with pytest.raises(InputError, match="that the models do not"):
         with_standard_errors(table, [{"Cl": models["Cm"]}])
+
+
+def test_the_plot_shades_two_standard_errors_where_the_table_has_them():
+    from matplotlib.collections import PolyCollection
+
+    from simplexspline.aero.derivatives import plot_derivatives
+
+    models, refits = _fits(_flight(), 5)
+    grid = {"alpha": np.linspace(0.0, 0.1, 7)}
+    plain = derivatives(models, grid, reference=REFERENCE)
+    shaded = with_standard_errors(plain, refits, grid)
+
+    def bands(table):
+        fig = plot_derivatives(table, x="alpha", by=None)
+        return sum(isinstance(c, PolyCollection) for ax in fig.axes for c in ax.collections)
+
+    assert bands(plain) == 0 and bands(shaded) == 3      # Cm_alpha, Cm_de, Cm_q

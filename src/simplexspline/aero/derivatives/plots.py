@@ -103,7 +103,9 @@ def plot_derivatives(table, names: Sequence[str] | None = None, *, x: str = "alp
     -------
     matplotlib.figure.Figure
         Solid where the condition lies in the model's domain (dashed in thinly covered
-        simplices), dotted where the values are
+        simplices; shaded +- 2 standard errors where the table has ``se_<name>``
+        columns, :func:`~simplexspline.aero.derivatives.jackknife.with_standard_errors`),
+        dotted where the values are
         extrapolated (``outside='extrapolate'``), a bar in the line's colour along the
         bottom where that line is outside the domain, grey where every line is. A model
         that does not depend on ``by`` gets one black line.
@@ -146,6 +148,12 @@ def plot_derivatives(table, names: Sequence[str] | None = None, *, x: str = "alp
             thin = ins & (support[sel][order] < limit)
             ax.plot(xs, np.where(ins & ~thin, ys, np.nan), "-", color=colour, lw=1.5,
                     label=label)
+            if f"se_{name}" in table.columns:    # +- 2 jackknife standard errors
+                se = table[f"se_{name}"].to_numpy(dtype=float)[sel][order]
+                band = ins & np.isfinite(se)
+                ax.fill_between(xs, np.where(band, ys - 2 * se, np.nan),
+                                np.where(band, ys + 2 * se, np.nan), color=colour,
+                                alpha=0.15, lw=0)
             if thin.any():    # in a simplex with few samples: dashed, joined to the line
                 near = thin | np.r_[thin[1:], False] | np.r_[False, thin[:-1]]
                 ax.plot(xs, np.where(near & ins, ys, np.nan), "--", color=colour, lw=1.0)
