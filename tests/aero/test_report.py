@@ -120,6 +120,8 @@ def test_derivative_table_has_the_jackknife_standard_errors(report):
     res, _, path, _ = report
     md = (path.parent / "report.md").read_text(encoding="utf-8")
     assert "standard error" in md and "jackknife" in md
+    # the derivative figures shade the refits' spread
+    assert "shaded: +- 2 jackknife standard errors" in md
     se = res.derivatives.loc["Cm_alpha", "standard_error"]
     row = next(line for line in md.splitlines() if "Cm\\_alpha" in line or "Cm_alpha" in line)
     assert f"{se:.2g}" in row, row

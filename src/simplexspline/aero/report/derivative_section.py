@@ -15,6 +15,7 @@ import numpy as np
 from simplexspline.aero.report.figures import _slice_values
 from simplexspline.aero.report.document import Figure, Heading, Paragraph, Table
 from simplexspline.aero.report.markup import _fmt, _unit
+from simplexspline.aero.derivatives.jackknife import with_standard_errors
 from simplexspline.aero.derivatives.plots import plot_derivative_map, plot_derivatives
 from simplexspline.aero.derivatives.stability import derivatives, reference_conditions
 
@@ -30,10 +31,13 @@ def _sweep_axes(model, ident) -> dict:
     return axes
 
 
-def _fig_derivatives(r, c: str, model, ident, ref: dict) -> Figure | None:
+def _fig_derivatives(r, c: str, model, ident, ref: dict, folds=()) -> Figure | None:
     axes = _sweep_axes(model, ident)
     x = next(iter(axes))
     table = derivatives(model, axes, reference=ref, wrt=list(model.variables))
+    mine = [{c: f} for f in folds if f is not None]
+    if mine:                        # the jackknife's refits: +- 2 standard errors shaded
+        table = with_standard_errors(table, mine, axes, wrt=list(model.variables))
     fig = plot_derivatives(table, x=x, by="mach" if "mach" in axes else None,
                            ncols=min(3, len(model.variables)))
     fixed = [v for v in model.variables if v not in axes]
@@ -45,7 +49,8 @@ def _fig_derivatives(r, c: str, model, ident, ref: dict) -> Figure | None:
                      + " (5/50/95 % data quantiles)" if "mach" in axes else "")
                   + (f"; {where}" if where else "") + ". Per rad (per non-dimensional rate "
                   "for p, q, r hat); bars at the bottom: outside the model's domain for "
-                  "that line, grey: for all")
+                  "that line, grey: for all"
+                  + ("; shaded: +- 2 jackknife standard errors" if mine else ""))
 
 
 def _fig_derivative_maps(r, models: dict, ref: dict) -> Figure | None:
@@ -69,12 +74,14 @@ def _fig_derivative_maps(r, models: dict, ref: dict) -> Figure | None:
                   "grey: outside the model's domain")
 
 
-def _derivative_section(models: dict, ident, slot, jackknife=None) -> list:
+def _derivative_section(models: dict, ident, slot, jackknife=None,
+                        folds: dict | None = None) -> list:
     """The 'Stability and control derivatives' section: a table at the reference
     condition and figures across the envelope (blocks of
     :mod:`~simplexspline.aero.report.document`; ``slot`` queues a figure). ``jackknife``:
     identify's table of the derivatives' standard errors
-    (:attr:`~simplexspline.aero.identify.Identification.derivatives`), or None."""
+    (:attr:`~simplexspline.aero.identify.Identification.derivatives`), or None;
+    ``folds``: per coefficient its jackknife refits (the figures' shaded errors)."""
     ref = reference_conditions(models, ident)
     at_ref = derivatives(models, None, reference=ref)
     rows = []
@@ -109,6 +116,7 @@ def _derivative_section(models: dict, ident, slot, jackknife=None) -> list:
     return [Heading(2, "Stability and control derivatives", "derivatives"),
             Paragraph(text),
             Table(head, rows, left=(0, 1, 4, 5)),
-            *(slot(f"{c} derivatives", _fig_derivatives, c, m, ident, ref)
+            *(slot(f"{c} derivatives", _fig_derivatives, c, m, ident, ref,
+                   tuple((folds or {}).get(c, ())))
               for c, m in models.items()),
             slot("derivative maps", _fig_derivative_maps, models, ref)]

@@ -438,7 +438,9 @@ def write_report(identification, outdir, *, progress: Callable[[str], None] | No
     for c, res in identification.results.items():
         blocks += _coefficient_section(c, res, identification, ident, valid, slot)
     blocks += _derivative_section({c: res.model for c, res in identification.results.items()},
-                                  ident, slot, identification.derivatives)
+                                  ident, slot, identification.derivatives,
+                                  {c: res.fold_models
+                                   for c, res in identification.results.items()})
 
     rendered = _render(jobs, workers, say)
     (outdir / "figures").mkdir(exist_ok=True)
