@@ -88,31 +88,14 @@ def jackknife_derivatives(models: Mapping, fold_models: Sequence[Mapping], *,
     if not models:
         raise InputError("jackknife_derivatives needs at least one model")
     ref = {str(k): float(v) for k, v in reference.items()}
-    options = {"wrt": wrt, "reference": ref, "geometry": geometry, "outside": "nan"}
-    full = derivatives(dict(models), **options)
+    full = derivatives(dict(models), wrt=wrt, reference=ref, geometry=geometry,
+                       outside="nan")
     info = full.attrs["derivatives"]
     names = list(info)
-    per_fold = []
-    for fold in fold_models:
-        fold = {c: m for c, m in fold.items() if m is not None}
-        extra = set(fold) - set(models)
-        if extra:
-            raise InputError(f"a fold holds coefficient(s) {sorted(extra)} that the models "
-                             "do not")
-        vals = dict.fromkeys(names, np.nan)
-        if fold:
-            table = derivatives(fold, **options)
-            vals.update({n: float(table[n].iloc[0]) for n in names if n in table.columns})
-        # a derivative counts in a fold only where all the models it needs were refitted
-        for n in names:
-            needs = info[n].get("model_variables") if info[n]["coefficient"] in ("CL", "CD") \
-                else [info[n]["coefficient"]]
-            if not all(c in fold for c in needs):
-                vals[n] = np.nan
-        per_fold.append(vals)
+    thetas = _fold_values(full, fold_models, None, {"wrt": wrt, "geometry": geometry})
     rows = []
     for n in names:
-        theta = np.array([f[n] for f in per_fold], dtype=float)
+        theta = thetas[n][:, 0]
         theta = theta[np.isfinite(theta)]
         g = theta.size
         se = 0.0 if not info[n]["in_model"] else float(_jackknife_se(theta[:, None])[0])
@@ -124,6 +107,38 @@ def jackknife_derivatives(models: Mapping, fold_models: Sequence[Mapping], *,
     out = pd.DataFrame(rows).set_index("derivative")
     out.attrs = {"reference": ref, "folds": len(fold_models)}
     return out
+
+
+def _fold_values(table: pd.DataFrame, fold_models: Sequence[Mapping], at,
+                 options: Mapping) -> dict:
+    """Per derivative of ``table`` (made by ``derivatives(models, at, ...)``) its values
+    in every refit at the table's conditions, shape (folds, N): NaN where a fold lacks a
+    model the derivative needs (``CL_alpha``: CX and CZ) or a refit is undefined there.
+
+    Raises
+    ------
+    InputError
+        A fold with a coefficient the table's models lack.
+    """
+    info = table.attrs["derivatives"]
+    known = set(table.attrs.get("models", {}))
+    values = {n: np.full((len(fold_models), len(table)), np.nan) for n in info}
+    for f, fold in enumerate(fold_models):
+        fold = {c: m for c, m in fold.items() if m is not None}
+        extra = set(fold) - known
+        if extra:
+            raise InputError(f"a fold holds coefficient(s) {sorted(extra)} that the models "
+                             "do not")
+        if not fold:
+            continue
+        part = derivatives(fold, at, outside="nan", reference=table.attrs["reference"],
+                           **options)
+        for n, d in info.items():
+            needs = d.get("model_variables") if d["coefficient"] in ("CL", "CD") \
+                else [d["coefficient"]]
+            if n in part.columns and all(c in fold for c in needs):
+                values[n][f] = part[n].to_numpy(dtype=float)
+    return values
 
 
 def _jackknife_se(theta: np.ndarray) -> np.ndarray:
@@ -155,27 +170,12 @@ def with_standard_errors(table: pd.DataFrame, fold_models: Sequence[Mapping], at
         A fold with a coefficient the table's models lack.
     """
     info = table.attrs["derivatives"]
-    known = set(table.attrs.get("models", {}))
-    options = {"wrt": wrt, "rates": rates, "geometry": geometry, "outside": "nan",
-               "reference": table.attrs["reference"]}
-    theta = {n: [] for n in info}
-    for fold in fold_models:
-        fold = {c: m for c, m in fold.items() if m is not None}
-        extra = set(fold) - known
-        if extra:
-            raise InputError(f"a fold holds coefficient(s) {sorted(extra)} that the models "
-                             "do not")
-        part = derivatives(fold, at, **options) if fold else None
-        for n, d in info.items():
-            needs = d.get("model_variables") if d["coefficient"] in ("CL", "CD") \
-                else [d["coefficient"]]
-            ok = part is not None and n in part.columns and all(c in fold for c in needs)
-            theta[n].append(part[n].to_numpy(dtype=float) if ok
-                            else np.full(len(table), np.nan))
+    theta = _fold_values(table, fold_models, at,
+                         {"wrt": wrt, "rates": rates, "geometry": geometry})
     out = table.copy()
     for n, d in info.items():
         out[f"se_{n}"] = (np.zeros(len(table)) if not d["in_model"]
-                          else _jackknife_se(np.array(theta[n]).reshape(-1, len(table))))
+                          else _jackknife_se(theta[n]))
     out.attrs = {**table.attrs, "jackknife_folds": len(fold_models)}
     return out
 
