@@ -40,6 +40,7 @@ import numpy as np
 
 from simplexspline.aero.modelling.notation import format_multiplier
 from simplexspline.aero.modelling.structure import Structure
+from simplexspline.aero.selection.validation import subsample_step
 from simplexspline.aero.variables import LATERAL_COEFFICIENTS, LATERAL_VARIABLES
 
 __all__ = ["HINGE_QUANTILES", "GCV_PENALTIES", "forward_hinges", "prune_path",
@@ -204,7 +205,7 @@ def forward_hinges(columns: Mapping, y: np.ndarray, coefficient: str,
         orthogonal to the terms already taken.
     """
     y = np.asarray(y, dtype=float)
-    step = max(1, int(np.ceil(len(y) / max_samples)))
+    step = subsample_step(len(y), max_samples)
     cols = {v: np.asarray(columns[v], dtype=float)[::step] for v in variables}
     ys = y[::step]
     want = 1 if coefficient in LATERAL_COEFFICIENTS else 0
@@ -276,7 +277,7 @@ def prune_path(columns: Mapping, y: np.ndarray, terms: Sequence[tuple], *,
     each without the term whose removal raised the squared error least, with their sum
     of squared errors: a list of (terms, sse, samples)."""
     y = np.asarray(y, dtype=float)
-    step = max(1, int(np.ceil(len(y) / max_samples)))
+    step = subsample_step(len(y), max_samples)
     names = {v for t in terms for v, _k in t}
     cols = {v: np.asarray(columns[v], dtype=float)[::step] for v in names}
     ys = y[::step]

@@ -63,7 +63,8 @@ from simplexspline.spline.varying import VaryingCoefficientSpace
 from simplexspline.aero.selection.coverage import covered_in_folds
 from simplexspline.aero.selection.fold_equations import FoldEquations, fold_equations
 from simplexspline.aero.selection.hinge_start import hinge_choices
-from simplexspline.aero.selection.validation import covered_in_fold, fold_by_maneuver
+from simplexspline.aero.selection.validation import (covered_in_fold, fold_by_maneuver,
+                                                     subsample_step)
 from simplexspline.spline import kernels
 
 __all__ = ["MOVE_KINDS", "PLAIN_FIT", "SearchCache", "SelectionSettings", "Trial",
@@ -708,7 +709,7 @@ def _cv_setup(columns: Mapping, y: np.ndarray, maneuvers: np.ndarray,
     for its flight condition when the folds are drawn, and only held-out samples whose
     cell the training folds cover are scored; otherwise ``conditions`` play both parts.
     """
-    step = max(1, int(np.ceil(len(y) / settings.max_samples)))
+    step = subsample_step(len(y), settings.max_samples)
     cols = {k: np.asarray(v)[::step] for k, v in columns.items()}
     ys, mans = np.asarray(y, dtype=float)[::step], np.asarray(maneuvers)[::step]
     k = min(settings.folds, len(np.unique(mans)))

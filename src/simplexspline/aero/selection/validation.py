@@ -16,7 +16,8 @@ from simplexspline.errors import InputError
 __all__ = ["CONDITION_KEEP", "COVERED_KEEP", "EXCITED", "FOLD_EXCITED", "PAPER_TABLE2",
            "ValidationSplit", "autocorrelation", "covered_in_fold", "fold_by_maneuver",
            "maneuver_spread",
-           "scores", "scores_by_coverage", "split_by_maneuver", "validation_split"]
+           "scores", "scores_by_coverage", "split_by_maneuver", "subsample_step",
+           "validation_split"]
 
 #: Fraction of each flight condition's samples that stays for identification when
 #: validation maneuvers are held out (and in the training folds of a scored
@@ -39,6 +40,13 @@ FOLD_EXCITED = 0.1
 
 #: Validation relative RMS of the paper's Table 2 (Cessna Citation II, fractions).
 PAPER_TABLE2 = {"CX": 0.0693, "CZ": 0.0260, "Cl": 0.0170, "Cm": 0.0172, "Cn": 0.0472}
+
+
+def subsample_step(n: int, max_samples: int) -> int:
+    """The stride that leaves at most ``max_samples`` of ``n`` samples (every k-th sample,
+    so that every maneuver keeps its share): the searches' and the jackknife's
+    subsampling of a long record."""
+    return max(1, int(np.ceil(n / max_samples)))
 
 
 @dataclass(frozen=True)
