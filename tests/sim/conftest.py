@@ -13,6 +13,7 @@ SMALL = {
     "c172p": ConditionGrid(altitudes_m=[800.0, 2000.0], airspeeds_mps=[42.0, 55.0]),
     "A4": ConditionGrid(altitudes_m=[3000.0, 8000.0], airspeeds_mps=[160.0, 220.0]),
     "737": ConditionGrid(altitudes_m=[3000.0, 8000.0], airspeeds_mps=[180.0, 230.0]),
+    "T37": ConditionGrid(altitudes_m=[2000.0, 5000.0], airspeeds_mps=[100.0, 135.0]),
 }
 MIX = {"3211": 3, "doublet": 1, "sum-of-sines": 2}
 
@@ -61,9 +62,15 @@ def b737_ideal():
     return small_campaign("737").run(workers=1, progress=False)
 
 
-@pytest.fixture(scope="session", params=["f16", "global5000", "c172p", "A4", "737"])
+@pytest.fixture(scope="session")
+def t37_ideal():
+    """Six T37 (straight-wing twin-jet trainer) maneuvers, perfect sensors, in this process."""
+    return small_campaign("T37").run(workers=1, progress=False)
+
+
+@pytest.fixture(scope="session", params=["f16", "global5000", "c172p", "A4", "737", "T37"])
 def ideal(request):
     """Each bundled aircraft's small ideal campaign (built on first use)."""
     return request.getfixturevalue({"f16": "f16_ideal", "global5000": "global5000_ideal",
                                     "c172p": "c172p_ideal", "A4": "a4_ideal",
-                                    "737": "b737_ideal"}[request.param])
+                                    "737": "b737_ideal", "T37": "t37_ideal"}[request.param])

@@ -17,7 +17,7 @@ from simplexspline.sim import (
 )
 
 
-@pytest.mark.parametrize("name", ["f16", "global5000", "c172p", "A4", "737"])
+@pytest.mark.parametrize("name", ["f16", "global5000", "c172p", "A4", "737", "T37"])
 def test_profile_round_trips_as_plain_data(name):
     prof = get_aircraft(name)
     assert AircraftProfile.from_dict(prof.to_dict()) == prof

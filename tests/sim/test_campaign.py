@@ -454,7 +454,7 @@ def test_envelope_coverage_summarises_the_campaign(f16_ideal):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("aircraft", ["f16", "global5000", "c172p", "A4", "737"])
+@pytest.mark.parametrize("aircraft", ["f16", "global5000", "c172p", "A4", "737", "T37"])
 def test_default_grid_campaign_stays_inside_and_covers(aircraft):
     """Forty maneuvers on the default grid: few cuts, Eq. 43-48 hold, wide coverage."""
     df = Campaign(aircraft, maneuvers=40, seed=3, sensors=SensorModel.ideal()).run(

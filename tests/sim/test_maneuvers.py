@@ -56,7 +56,7 @@ def test_multisine_unit_rms_and_spectrum():
     assert s[0] == 0.0 and abs(s[-1]) < 1e-3  # tapered ends
 
 
-@pytest.mark.parametrize("aircraft", ["f16", "global5000", "c172p", "A4", "737"])
+@pytest.mark.parametrize("aircraft", ["f16", "global5000", "c172p", "A4", "737", "T37"])
 def test_designs_respect_the_profile(aircraft, rng):
     prof = get_aircraft(aircraft)
     for kind in MANEUVER_TYPES:

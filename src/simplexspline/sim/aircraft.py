@@ -5,11 +5,13 @@ dictionary (:meth:`AircraftProfile.to_dict`) and is rebuilt there, so nothing is
 but builtins. The bundled profiles are ``f16`` (a fly-by-wire fighter with strongly
 nonlinear tables), ``global5000`` (a twin-jet business aircraft), ``c172p`` (a light
 single-piston aircraft, slow, with propeller slipstream), ``A4`` (a subsonic light attack
-jet) and ``737`` (a twin-jet transport, added after the identification's defaults were
-settled, to judge them on an aircraft they were not developed on); :func:`get_aircraft`
-returns one, :func:`register_aircraft` adds your own.
+jet), ``737`` (a twin-jet transport, added after the identification's defaults were
+settled, to judge them on an aircraft they were not developed on) and ``T37`` (a
+straight-wing twin-jet trainer with alpha-dot terms in lift and pitch, the class of a light
+business jet, added at stop 58 for the same purpose); :func:`get_aircraft` returns one,
+:func:`register_aircraft` adds your own.
 
-Sign conventions (JSBSim's, measured on all five bundled models):
+Sign conventions (JSBSim's, measured on all six bundled models):
 
 * ``de`` > 0: elevator trailing edge down, nose-down pitching moment (dCm/dde < 0);
 * ``da`` > 0: positive (right-wing-down) rolling moment (dCl/dda > 0);
@@ -383,8 +385,42 @@ _B737 = AircraftProfile(
     notes="flaps, spoilers and speed brake retracted; yaw damper off (the FCS is off)",
 )
 
+_T37 = AircraftProfile(
+    name="T37",
+    model="T37",
+    # a straight-wing twin-jet trainer with manual controls and a linear, Roskam-derived
+    # database that includes alpha-dot lift and pitching moment (the class of a light
+    # business jet); the aerodynamics read the left aileron only and the elevator
+    # magnitude (fcs/mag-elevator-pos-rad, derived by JSBSim from fcs/elevator-pos-rad)
+    elevator=Surface(0.35, 60 * DEG, 0.06, (("fcs/elevator-pos-rad", 1.0),)),
+    aileron=Surface(0.35, 60 * DEG, 0.06, (("fcs/left-aileron-pos-rad", 1.0),)),
+    rudder=Surface(0.35, 60 * DEG, 0.06, (("fcs/rudder-pos-rad", 1.0),)),
+    throttles=("fcs/throttle-pos-norm", "fcs/throttle-pos-norm[1]"),
+    tanks=("propulsion/tank/contents-lbs", "propulsion/tank[1]/contents-lbs"),
+    # the model's values at Mach 0.35 (JSBSim 1.3.3): Cmde, Clda, Cndr
+    control_power=(-0.96, 0.156, -0.037),
+    altitudes_m=(1500.0, 3000.0, 4500.0, 6000.0),
+    airspeeds_mps=(95.0, 110.0, 125.0, 140.0),
+    # the lift table is linear up to 0.26 rad and stalls beyond
+    envelope=Envelope(alpha_min=-5 * DEG, alpha_max=13 * DEG, beta_max=8 * DEG,
+                      phi_max=60 * DEG, theta_max=35 * DEG, nz_min=-0.5, nz_max=3.5,
+                      mach_max=0.6, h_min=300.0),
+    pulse_unit_s=(0.4, 1.0),
+    pulse_accel=((0.25, 0.7), (0.6, 1.8), (0.1, 0.3)),
+    pulse_qbar_ref=8000.0,
+    sos_accel_rms=(0.2, 0.5, 0.1),
+    sos_band_hz=(0.06, 1.6),
+    sos_bank=40 * DEG,
+    pilot_bandwidth=(1.6, 1.8),
+    sas_damping=(2.0, 2.0, 1.0),
+    flap_property="fcs/flap-pos-deg",
+    flap_scale=math.pi / 180.0,
+    notes="flaps, gear and speed brake retracted; alpha-dot terms in lift and pitch",
+)
+
 _REGISTRY: dict[str, AircraftProfile] = {"f16": _F16, "global5000": _GLOBAL5000,
-                                         "c172p": _C172P, "A4": _A4, "737": _B737}
+                                         "c172p": _C172P, "A4": _A4, "737": _B737,
+                                         "T37": _T37}
 
 
 def available_aircraft() -> list[str]:
