@@ -432,6 +432,35 @@ def test_the_joint_combination_does_not_depend_on_the_constants_units():
     assert abs(metres.value[2] - 4.0) < 4 * metres.sigma()[2]
 
 
+def test_a_mean_far_from_the_others_angles_cannot_set_the_vane_scale_under_the_prior():
+    """Twenty maneuvers within 0.01 rad of angle of attack (one airspeed band), each mean
+    off by its mean gust (8e-3 rad, which the kinematic angle carries and the residual
+    carries with the opposite sign), and one whose kinematic angle went astray (0.52 rad,
+    residual -0.49: the vane did not follow it). The others' own line says nothing that
+    far from them, so without the prior the bad mean stays and sets the scale near -1 (a
+    vane that does not move) with a sigma of 0.01; with the prior of the offset and
+    scale (0.02 rad, 0.05) it is left out and named, and the others' line is as
+    uncertain as it is (sigma above 0.05: not a calibration). Honest means 0-0.1 rad
+    with a 20 % scale error keep all their maneuvers under the prior, and find the same
+    line as without it."""
+    rng = np.random.default_rng(5)
+    a = 0.02 + 0.01 * rng.random(20)
+    gust = 8e-3 * rng.standard_normal(20)
+    means = [(x + g, 0.01 + 0.04 * x - g, 400, m)
+             for m, (x, g) in enumerate(zip(a, gust))] + [(0.52, -0.49, 135, 20)]
+    blind = vane_scale_from_means(means)
+    assert 20 in blind.used and blind.scale < -0.9 and blind.scale_sd < 0.02
+    fit = vane_scale_from_means(means, prior=(0.02, 0.05))
+    assert 20 in fit.excluded and fit.excluded[20] > 10 and 20 not in fit.used
+    assert len(fit.used) == 20 and fit.scale_sd > 0.05
+    wide = np.linspace(0.0, 0.1, 12)
+    honest = [(x, 0.03 + 0.2 * x + 1e-3 * rng.standard_normal(), 600, m)
+              for m, x in enumerate(wide)]
+    with_prior = vane_scale_from_means(honest, prior=(0.02, 0.05))
+    assert with_prior.excluded == {} and with_prior.scale == pytest.approx(
+        vane_scale_from_means(honest).scale)
+
+
 def test_a_vane_scale_from_the_maneuvers_means_recovers_the_line_and_leaves_out_a_bad_one():
     """Means of 12 maneuvers at angles 0-0.1 rad, the vane reading 1.2x plus 0.03 rad, each
     mean off by a gust of 1e-3 rad: the line is found within its sigma, which the scatter
