@@ -518,6 +518,39 @@ def test_divergence_messages_name_units_and_signs(noisy_campaign):
     assert "sign of 'phi'" in str(rec_or_error)
 
 
+def test_a_maneuver_whose_imu_biases_lie_far_from_the_others_is_rejected_and_named():
+    """inconsistent_imu: the biases of one maneuver 10 prior sigmas or more from the
+    campaign's median reject it, naming the channel and its distance; a bias every
+    maneuver shares passes; fewer than three maneuvers judge nothing. End to end, an
+    accelerometer channel off by 3 m/s^2 in one maneuver only (a stretch of the record
+    wrong on its own) rejects that maneuver, and the others are reconstructed."""
+    from simplexspline.aero.reconstruction.diagnosis import inconsistent_imu
+
+    prior = {"accel_bias": 0.1, "gyro_bias": 0.002}
+    base = {"ax": (0.02, 1e-3), "ay": (-0.01, 1e-3), "az": (0.03, 2e-3),
+            "p": (3e-4, 1e-5), "q": (-2e-4, 1e-5), "r": (2e-4, 3e-5)}
+    biases = {m: dict(base) for m in range(6)}
+    assert inconsistent_imu(biases, prior) == {}
+    biases[4] = {**base, "ax": (6.1, 0.03), "q": (-0.0302, 4e-5)}
+    bad = inconsistent_imu(biases, prior)
+    assert list(bad) == [4]
+    assert "ax +6.1 m/s^2 against the campaign's median +0.02 (61 prior sigmas)" in bad[4]
+    assert "q -0.0302 rad/s" in bad[4] and "check the record there" in bad[4]
+    shared = {m: {**base, "ax": (2.0 + 0.01 * m, 0.01)} for m in range(6)}
+    assert inconsistent_imu(shared, prior) == {}                  # the instrument's own
+    assert inconsistent_imu({0: base, 1: {**base, "ax": (6.0, 0.1)}}, prior) == {}
+    assert inconsistent_imu({**biases, 5: {"ax": float("nan")}}, prior).keys() == {4}
+
+
+def test_an_accelerometer_wrong_in_one_maneuver_rejects_it(noisy_campaign):
+    df = noisy_campaign.copy()
+    df.loc[df["maneuver"] == 2, "ax"] += 3.0
+    rec = reconstruct(df, workers=2)
+    assert set(rec.rejected) == {2}
+    assert "its IMU biases lie far from every other maneuver's (ax" in rec.rejected[2]
+    assert set(rec.data["maneuver"]) == set(noisy_campaign["maneuver"]) - {2}
+
+
 def test_maneuvers_without_gps_use_the_campaign_calibration(noisy_campaign):
     two = noisy_campaign[noisy_campaign["maneuver"].isin([2, 3])].copy()
     two.loc[two["maneuver"] == 3, GPS] = np.nan          # GPS lost in maneuver 3

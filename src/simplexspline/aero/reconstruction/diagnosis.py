@@ -25,7 +25,8 @@ import numpy as np
 
 from simplexspline.aero.reconstruction.kinematics import euler_rates
 
-__all__ = ["kinematic_checks", "innovation_causes", "likely_causes"]
+__all__ = ["kinematic_checks", "innovation_causes", "likely_causes", "inconsistent_imu",
+           "INCONSISTENT_PRIOR_SIGMAS"]
 
 _UNIT_RATIOS = ((180 / math.pi, "degrees where radians are expected"),
                 (math.pi / 180, "radians where degrees were converted twice"))
@@ -171,3 +172,71 @@ def likely_causes(task: Mapping, dt: float, stats: Mapping | None = None,
     if stats is not None and innov is not None:
         causes += innovation_causes(stats, innov, task, present or {}, dt, names)
     return "; ".join(dict.fromkeys(causes))
+
+
+#: How many of the filter's prior sigmas a maneuver's IMU bias may lie from the campaign's
+#: median before the maneuver is rejected (:func:`inconsistent_imu`).
+INCONSISTENT_PRIOR_SIGMAS = 10.0
+
+#: Fewest reconstructed maneuvers whose median IMU biases judge one maneuver's.
+_MIN_MANEUVERS = 3
+
+_IMU_UNITS = {"ax": "m/s^2", "ay": "m/s^2", "az": "m/s^2",
+              "p": "rad/s", "q": "rad/s", "r": "rad/s"}
+
+
+def inconsistent_imu(biases: Mapping, prior: Mapping) -> dict:
+    """Maneuvers whose accelerometer or gyro biases lie far from the other maneuvers'.
+
+    The IMU is one instrument for the whole flight: its biases drift by a fraction of
+    the filter's prior sigma between maneuvers. A maneuver whose filter needs a bias
+    :data:`INCONSISTENT_PRIOR_SIGMAS` prior sigmas away from the campaign's median has
+    kinematics that do not hold: its accelerations and rates do not integrate to its air
+    data and GPS (a glitch, a jump of the time base, a stretch of the record spliced from
+    two parts, a channel frozen or wrongly scaled in that stretch only). On a simulated
+    record whose landing was a blend of the last maneuver into the ground roll (13 s in
+    which the airspeed fell from 110 to 30 m/s at 0.3 m/s^2 of specific force along x),
+    the segmentation took the blend for a turn and its filter found an x-accelerometer
+    bias of 6.1 m/s^2, 61 prior sigmas from the others' 0.02. A bias that every maneuver
+    shares, however large, is the instrument's and passes.
+
+    Parameters
+    ----------
+    biases : mapping of int to mapping
+        Maneuver -> channel ('ax', 'ay', 'az' [m/s^2], 'p', 'q', 'r' [rad/s]) -> (value,
+        sigma) or value: each maneuver's estimated biases (other keys are ignored).
+    prior : mapping
+        The filter's prior sigmas ``accel_bias`` [m/s^2] and ``gyro_bias`` [rad/s]
+        (:attr:`ReconstructionSettings.prior`).
+
+    Returns
+    -------
+    dict of int to str
+        Maneuver -> the reason it is rejected, naming the channels; empty with fewer
+        than three maneuvers.
+    """
+    if len(biases) < _MIN_MANEUVERS:
+        return {}
+    limit = {ch: INCONSISTENT_PRIOR_SIGMAS * float(prior["accel_bias" if ch[0] == "a"
+                                                         else "gyro_bias"])
+             for ch in _IMU_UNITS}
+    values = {ch: {m: float(b[ch][0] if isinstance(b[ch], (tuple, list)) else b[ch])
+                   for m, b in biases.items() if ch in b} for ch in _IMU_UNITS}
+    out: dict = {}
+    for ch, per in values.items():
+        finite = [v for v in per.values() if math.isfinite(v)]
+        if len(finite) < _MIN_MANEUVERS:
+            continue
+        median = float(np.median(finite))
+        for m, v in per.items():
+            if math.isfinite(v) and abs(v - median) > limit[ch]:
+                out.setdefault(m, []).append(
+                    f"{ch} {v:+.3g} {_IMU_UNITS[ch]} against the campaign's median "
+                    f"{median:+.3g} ({abs(v - median) / limit[ch] * INCONSISTENT_PRIOR_SIGMAS:.0f}"
+                    " prior sigmas)")
+    return {m: ("its IMU biases lie far from every other maneuver's (" + "; ".join(parts)
+                + "): its accelerations and rates do not integrate to its air data and "
+                "GPS. A glitch, a jump of the time base, a stretch spliced from two parts "
+                "of the record, or a channel wrong in that stretch only: check the record "
+                "there")
+            for m, parts in out.items()}

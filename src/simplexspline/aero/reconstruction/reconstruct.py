@@ -49,7 +49,7 @@ from simplexspline.aero.reconstruction.campaign_calibration import (FALSE_ALARM,
 from simplexspline.aero.reconstruction.iekf import (
     FilterNoise, IteratedUpdate, StateEstimate, rts_smooth, run_filter,
 )
-from simplexspline.aero.reconstruction.diagnosis import likely_causes
+from simplexspline.aero.reconstruction.diagnosis import inconsistent_imu, likely_causes
 from simplexspline.aero.reconstruction.gusts import (
     GustChoice, choose_gusts, gust_process, innovation_excess,
 )
@@ -1951,15 +1951,24 @@ def _vane_scale_in_gusts(tasks: list, results: list, calibration: Mapping,
     point = {int(t["maneuver"]): _test_point(t) for t in chosen}
     means = [(*r["vane_means"], int(r["maneuver"]), point[int(r["maneuver"])])
              for r in found if r["ok"] and r.get("vane_means")]
-    fit = vane_scale_from_means(means)
+    prior = float(settings.prior["vane_scale"])
+    fit = vane_scale_from_means(means, prior=(float(settings.prior["vane_bias"]), prior))
     if fit is None:
         return None
-    prior = float(settings.prior["vane_scale"])
     return {"kalpha": fit.scale, "kalpha_sd": fit.scale_sd, "balpha": fit.offset,
             "balpha_sd": fit.offset_sd, "maneuvers": list(fit.used),
             "excluded": {str(m): round(z, 2) for m, z in fit.excluded.items()},
             "angle_spread_rad": fit.spread,
             "used_as_calibration": bool(fit.scale_sd <= OBSERVED * prior)}
+
+
+def _without_inconsistent(results: list, settings: ReconstructionSettings) -> list:
+    """``results`` with the maneuvers whose IMU biases lie far from every other one's
+    (:func:`~simplexspline.aero.reconstruction.diagnosis.inconsistent_imu`) rejected."""
+    bad = inconsistent_imu({int(r["maneuver"]): r["biases"] for r in results if r["ok"]},
+                           settings.prior)
+    return [_reject(int(r["maneuver"]), bad[int(r["maneuver"])])
+            if r["ok"] and int(r["maneuver"]) in bad else r for r in results]
 
 
 def _positions_to_estimate(df, geometry: Mapping) -> bool:
@@ -2066,6 +2075,7 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                 for k in POSITION_STATES:
                     if r["ok"] and r["held"].get(k) == POSITION_NOT_REQUESTED:
                         r["held"][k] = POSITION_AFTER_LAGS
+        results = _without_inconsistent(results, settings)
         # turbulence everywhere: the vane's scale from the maneuvers' means, then held
         vane_scale = _vane_scale_in_gusts(tasks, results, calibration, settings, pool,
                                           progress)
@@ -2075,7 +2085,8 @@ def reconstruct(df, metadata: Mapping | None = None, *,
                            "balpha": (vane_scale["balpha"], vane_scale["balpha_sd"])}
             for task in tasks:
                 task["calibration"] = calibration
-            results = _run_all(tasks, settings.to_dict(), pool, progress)
+            results = _without_inconsistent(_run_all(tasks, settings.to_dict(), pool,
+                                                     progress), settings)
         smoothed = _smooth_controls(df, tasks, pool) if settings.smooth_controls else {}
     accepted, rejected, rows, parts = {}, {}, [], []
     for task, res in zip(tasks, results):
