@@ -370,6 +370,22 @@ def test_moves_from_the_linear_start_keep_the_coefficients_continuous():
     assert "schedule on beta" in dict(neighbours(lin, SelectionSettings(), avail))
 
 
+def test_kept_multipliers_are_never_removed_by_a_move():
+    """SelectionSettings.kept_multipliers: no 'remove multiplier' move for them, the
+    others' removal still offered, every other kind of move unchanged."""
+    start = linear_start(AUTO_PRESET["Cm"])
+    avail = ["alpha", "mach", "qhat", "de", "beta"]
+    free = dict(neighbours(start, SelectionSettings(), avail))
+    kept = dict(neighbours(start, SelectionSettings(kept_multipliers=("qhat", "de")), avail))
+    removed = {m for m in free if m.startswith("remove multiplier")}
+    assert {"remove multiplier qhat", "remove multiplier de"} <= removed
+    assert {m for m in kept if m.startswith("remove multiplier")} == \
+        removed - {"remove multiplier qhat", "remove multiplier de"}
+    assert set(kept) == set(free) - {"remove multiplier qhat", "remove multiplier de"}
+    for cand in kept.values():
+        assert {"qhat", "de"} <= set(cand.multipliers) | set(cand.variables)
+
+
 def test_the_screen_ranks_the_schedule_moves_of_the_linear_start():
     """The screen reads the new scheduling variable from the move's name, which from
     degree 0 carries the note of the raised degree."""

@@ -647,12 +647,24 @@ def test_a_search_that_cannot_score_where_the_coefficient_moves_starts_linear(ta
         coefficients=("Cm",), structures={"Cm": start}, selection=FAST, workers=1))
     assert 0 in set(res.identification["maneuver"])
     first = res.results["Cm"].history[0].structure
-    assert first == linear_start(start)
     assert (first.degree, first.resolution) == (0, (1,))
     note = [w for w in res.warnings if "scored none of the maneuvers" in w]
     assert len(note) == 1 and note[0].startswith("Cm: ") and "(0 (" in note[0]
-    assert "started from the linear model of its terms" in note[0]
+    assert "started from the linear model of its terms, kept them" in note[0]
     assert "without the hinge start" in note[0]
+    # the cross-validation cannot judge removing the terms that only maneuver 0 moves,
+    # nor their change across the envelope, nor what a new term takes from them: every
+    # structure tried keeps the linear start's terms with constant coefficients, and
+    # adds none
+    assert first == linear_start(start, constant=True)
+    kept = set(first.multipliers)
+    assert {"qhat[]", "de[]"} <= kept
+    for trial in res.results["Cm"].history:
+        assert kept <= set(trial.structure.multipliers), trial.move
+        assert not trial.move.startswith(("remove multiplier", "add ", "schedule")), \
+            trial.move
+    final = res.results["Cm"].model.structure
+    assert kept <= set(final.multipliers)
     assert FAST.hinge_start
     assert not [t.move for t in res.results["Cm"].history if "hinge start" in t.move]
     # the same data with Cm moving everywhere: the scheduled start is kept, and the
@@ -780,7 +792,9 @@ def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named
     assert note.startswith("CY: the structure search's cross-validation scored none of the "
                            "maneuvers that excite it most (1 (pulse-rudder), 2 "
                            "(doublet-rudder))"), note
-    assert "started from the linear model of its terms and chose CY(alpha) S^0_1" in note
+    assert ("started from the linear model of its terms, kept them with constant "
+            "coefficients (nothing could test their removal or their change across the "
+            "envelope), added none, and chose CY(alpha) S^0_1") in note
     assert "without the hinge start" in note
     # a shared cell: the maneuvers cover each other and are scored
     both = cv_scored_share(cols, y, man, SelectionSettings(folds=3), seed=0,

@@ -1126,9 +1126,20 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     if untested:
         # the linear model of the start's terms, and no hinge basis: the forward pass
         # would place its knots and products on the unscored maneuvers, where the
-        # cross-validation cannot judge them (the 737 six-point course's Cn)
-        start = linear_start(start)
-        selection = replace(selection, hinge_start=False)
+        # cross-validation cannot judge them (the 737 six-point course's Cn); nor can it
+        # judge the removal of a term that only those maneuvers excite, nor how its
+        # derivative changes across the envelope, nor what a new term takes from it: the
+        # linear terms stay, with constant coefficients, and the search only shapes the
+        # constant term along the scheduling variable (the T37 six-point still-air
+        # course's Cm lost its elevator and pitch rate, Cm_alpha -0.01 against the
+        # truth's -0.70; kept, the elevator's coefficient varied with alpha and took the
+        # trim curve; constant, alpha-dot terms added on the scored maneuvers took the
+        # doublet's moment: Cm_de -0.11 against the simulator's -0.96)
+        start = linear_start(start, constant=True)
+        selection = replace(selection, hinge_start=False,
+                            kept_multipliers=tuple(start.multipliers),
+                            moves=tuple(m for m in selection.moves
+                                        if m in UNSCORED_MOVES))
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
                                                      selection, seed=settings.seed,
                                                      cells=cells, cache=cache)
@@ -1147,6 +1158,12 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                                  columns, coverage, settings, has_truth, source, notes, warn,
                                  t0, busy0, left_out)
 
+
+#: The moves of a structure search whose cross-validation scores none of the maneuvers
+#: that excite the coefficient (:func:`_untested`): degree and resolution, which shape the
+#: constant term of the linear start along its scheduling variable, its other terms
+#: having constant coefficients (:func:`~simplexspline.aero.modelling.auto.linear_start`).
+UNSCORED_MOVES = ("degree", "resolution")
 
 #: A maneuver counts as scored by the structure search's cross-validation when at least
 #: this share of its variation is (:func:`_untested`).
@@ -1185,8 +1202,9 @@ def _unscored_note(c: str, best: Structure, untested: list, types: np.ndarray | 
     """The note on a coefficient whose exciting maneuvers (``untested``: :func:`_untested`)
     the search's cross-validation never scored: its search started from the linear model
     of its terms (:func:`~simplexspline.aero.modelling.auto.linear_start`) without the
-    hinge start (``SelectionSettings.hinge_start``), and ``best`` is what the scored
-    maneuvers supported beyond it."""
+    hinge start (``SelectionSettings.hinge_start``) and with those terms kept
+    (``SelectionSettings.kept_multipliers``), and ``best`` is what the scored maneuvers
+    supported beyond it."""
     first = {} if types is None else {m: types[k] for m, k in
                                       zip(*np.unique(maneuvers, return_index=True))}
     named = ", ".join(f"{m}" + (f" ({first[m]})" if m in first else "")
@@ -1194,7 +1212,9 @@ def _unscored_note(c: str, best: Structure, untested: list, types: np.ndarray | 
     return (f"{c}: the structure search's cross-validation scored none of the maneuvers "
             f"that excite it most ({named}): each lies alone in its envelope cells, so no "
             "structure could be tested where it matters; the search started from the "
-            f"linear model of its terms and chose {best.label()} on the other maneuvers, "
+            "linear model of its terms, kept them with constant coefficients (nothing "
+            "could test their removal or their change across the envelope), added none, "
+            f"and chose {best.label()} on the other maneuvers, "
             "without the hinge start (its forward pass would place knots on those "
             "maneuvers that nothing judges); fly those inputs twice per test point to "
             "test a scheduled structure")

@@ -20,7 +20,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from simplexspline.aero.modelling.notation import multiplier_factors, split_multiplier
+from simplexspline.aero.modelling.notation import (format_multiplier, multiplier_factors,
+                                                  split_multiplier)
 from simplexspline.aero.modelling.structure import Structure
 from simplexspline.aero.variables import (
     CANDIDATE_VARIABLES,
@@ -62,7 +63,7 @@ def _start(coefficient: str) -> Structure:
 AUTO_PRESET: dict[str, Structure] = {c: _start(c) for c in COEFFICIENTS}
 
 
-def linear_start(structure: Structure) -> Structure:
+def linear_start(structure: Structure, constant: bool = False) -> Structure:
     """``structure``'s terms with constant multipliers: a linear model in its terms and in
     its scheduling variables (one cell of degree 0 over its first variable, no knots; the
     scheduling variables of the coefficient's own parity join the multipliers). A
@@ -86,6 +87,20 @@ def linear_start(structure: Structure) -> Structure:
     (('alpha',), 0, (1,), ('1', 'beta', 'phat', 'rhat', 'da', 'dr'))
     >>> linear_start(AUTO_PRESET["Cm"]).multipliers
     ('1', 'qhat', 'de', 'alpha', 'mach')
+    >>> linear_start(AUTO_PRESET["Cm"], constant=True).multipliers
+    ('1', 'qhat[]', 'de[]', 'alpha[]', 'mach[]')
+
+    With ``constant``, every term but the constant keeps a constant coefficient when the
+    search later refines or schedules the structure (``[]``,
+    :mod:`~simplexspline.aero.modelling.notation`); terms without dimensions or
+    breakpoints of their own only. ``identify`` starts so where its cross-validation
+    scores none of the maneuvers that excite the coefficient: how a derivative changes
+    across the envelope is what such a search cannot test. On a six-test-point course of
+    a straight-wing jet whose one elevator doublet moved alpha with the elevator, a model
+    scheduled on three alpha cells let the elevator's coefficient vary with alpha, and in
+    the middle cell, where the turns' trim changes moved alpha and elevator together, it
+    took the trim curve: Cm_de -0.04 against the doublet's -0.56 by least squares (the
+    simulator's -0.96), and Cm_alpha 0.01 (truth -0.70).
     """
     if not structure.multipliers:
         n = len(structure.variables)
@@ -94,8 +109,12 @@ def linear_start(structure: Structure) -> Structure:
     lateral = structure.coefficient in LATERAL_COEFFICIENTS
     own = tuple(v for v in structure.variables if (v in LATERAL_VARIABLES) == lateral
                 and v not in structure.multipliers)
+    terms = structure.multipliers + own
+    if constant:
+        terms = tuple(m if m == "1" or "[" in m or "{" in m else format_multiplier(m, ())
+                      for m in terms)
     return Structure(structure.coefficient, structure.variables[:1], degree=0, continuity=-1,
-                     resolution=(1,), multipliers=structure.multipliers + own)
+                     resolution=(1,), multipliers=terms)
 
 
 def candidate_terms(coefficient: str, available: Sequence[str],

@@ -84,6 +84,8 @@ def neighbours(s: Structure, settings, available: Sequence[str]):
                             s.with_(multipliers=(*s.multipliers, term))))
         if len(s.multipliers) > 1:
             for v in s.multipliers:
+                if v in settings.kept_multipliers:
+                    continue
                 out.append((f"remove multiplier {v}", s.with_(
                     multipliers=tuple(w for w in s.multipliers if w != v))))
         out.extend(schedule_moves(s, settings, available))

@@ -246,6 +246,16 @@ class SelectionSettings:
         "The hinge start"). Before the passes run inside the folds, the structures of the
         passes on all the data are scored as a screen (an optimistic score): where none
         beats the search's result by ``min_improvement``, nothing more is done.
+    kept_multipliers : tuple of str
+        Multipliers of a varying-coefficient structure that no move removes (the others
+        may still be added, scheduled or given kinks). ``identify`` keeps the linear
+        start's terms where the cross-validation scores none of the maneuvers that move
+        the coefficient: it cannot then judge the removal of a term that only those
+        maneuvers excite. On a six-test-point still-air course of a straight-wing jet
+        with one elevator doublet, the search removed the elevator and the pitch rate
+        from Cm, and the model's Cm_alpha was -0.01 (truth -0.70): through the
+        stationary points alone, where the elevator trims the aircraft, Cm does not
+        change with alpha.
     """
 
     candidates: tuple = CANDIDATE_VARIABLES
@@ -277,6 +287,7 @@ class SelectionSettings:
     parsimony: float = 1.0
     joint_kinks: bool = False
     hinge_start: bool = True
+    kept_multipliers: tuple = ()
 
     def __post_init__(self):
         unknown = sorted(set(self.moves) - set(MOVE_KINDS))
