@@ -654,15 +654,16 @@ def test_a_search_that_cannot_score_where_the_coefficient_moves_starts_linear(ta
     assert "without the hinge start" in note[0]
     # the cross-validation cannot judge removing the terms that only maneuver 0 moves,
     # nor their change across the envelope, nor what a new term takes from them: every
-    # structure tried keeps the linear start's terms with constant coefficients, and
-    # adds none
+    # structure tried keeps the linear start's terms with constant coefficients, and no
+    # term of the pitch rate (which only maneuver 0 moves) is offered
     assert first == linear_start(start, constant=True)
     kept = set(first.multipliers)
     assert {"qhat[]", "de[]"} <= kept
     for trial in res.results["Cm"].history:
         assert kept <= set(trial.structure.multipliers), trial.move
-        assert not trial.move.startswith(("remove multiplier", "add ", "schedule")), \
-            trial.move
+        assert not trial.move.startswith("remove multiplier"), trial.move
+        assert not (trial.move.startswith(("add multiplier", "schedule on"))
+                    and "qhat" in trial.move), trial.move
     final = res.results["Cm"].model.structure
     assert kept <= set(final.multipliers)
     assert FAST.hinge_start
@@ -768,6 +769,22 @@ def test_a_doublet_scored_only_in_its_trimmed_lead_in_counts_as_unscored():
         cv_scored_share(cols, y, man, settings, cells=cells, by="energy")
 
 
+def test_the_unscored_search_is_offered_only_variables_that_scored_maneuvers_move():
+    """_scored_candidates: a variable that only an unscored maneuver moves is not offered
+    (its terms would be judged where it does not move); the others, and variables absent
+    from the data, stay."""
+    from simplexspline.aero.identify import _scored_candidates
+
+    man = np.repeat([0, 1, 2, 3], 40)
+    cells = np.repeat([3, 3, 3, 11], 40)          # maneuver 3 alone in its cells
+    rng = np.random.default_rng(1)
+    cols = {"alpha": rng.normal(size=160),
+            "alphadot_hat": np.concatenate([1e-4 * rng.normal(size=120),
+                                            1e-2 * rng.normal(size=40)])}
+    settings = SelectionSettings(folds=3, candidates=("alpha", "alphadot_hat", "beta"))
+    assert _scored_candidates(cols, man, settings, 0, cells) == ("alpha", "beta")
+
+
 def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named():
     """Three maneuvers, each alone in its envelope cells: the search's cross-validation
     scores none of them (cv_scored_share 0); the two that move the coefficient most are
@@ -794,7 +811,8 @@ def test_a_coefficient_whose_exciting_maneuvers_the_search_never_scored_is_named
                            "(doublet-rudder))"), note
     assert ("started from the linear model of its terms, kept them with constant "
             "coefficients (nothing could test their removal or their change across the "
-            "envelope), added none, and chose CY(alpha) S^0_1") in note
+            "envelope), offered only the variables that scored maneuvers move, and chose "
+            "CY(alpha) S^0_1") in note
     assert "without the hinge start" in note
     # a shared cell: the maneuvers cover each other and are scored
     both = cv_scored_share(cols, y, man, SelectionSettings(folds=3), seed=0,

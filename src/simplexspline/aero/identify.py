@@ -1138,8 +1138,8 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         start = linear_start(start, constant=True)
         selection = replace(selection, hinge_start=False,
                             kept_multipliers=tuple(start.multipliers),
-                            moves=tuple(m for m in selection.moves
-                                        if m in UNSCORED_MOVES))
+                            candidates=_scored_candidates(columns, mans, selection,
+                                                          settings.seed, cells))
     prior_degree, prior_scores = choose_prior_degree(start, columns, y, mans,
                                                      selection, seed=settings.seed,
                                                      cells=cells, cache=cache)
@@ -1158,12 +1158,6 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                                  columns, coverage, settings, has_truth, source, notes, warn,
                                  t0, busy0, left_out)
 
-
-#: The moves of a structure search whose cross-validation scores none of the maneuvers
-#: that excite the coefficient (:func:`_untested`): degree and resolution, which shape the
-#: constant term of the linear start along its scheduling variable, its other terms
-#: having constant coefficients (:func:`~simplexspline.aero.modelling.auto.linear_start`).
-UNSCORED_MOVES = ("degree", "resolution")
 
 #: A maneuver counts as scored by the structure search's cross-validation when at least
 #: this share of its variation is (:func:`_untested`).
@@ -1197,6 +1191,29 @@ def _untested(y: np.ndarray, maneuvers: np.ndarray, shares: Mapping) -> list:
     return [ids[i].item() for i in moving]
 
 
+def _scored_candidates(columns: Mapping, maneuvers: np.ndarray, selection, seed: int,
+                       cells) -> tuple:
+    """The search's candidate variables whose own exciting maneuvers the cross-validation
+    scores (:func:`_untested` of the variable's column is empty): where the coefficient's
+    exciting maneuvers are unscored, a term added on the scored maneuvers may take over
+    what only the unscored ones show, and nothing would see it. On the T37 six-point
+    still-air course, alpha-dot terms added to Cm took its one elevator doublet's moment
+    (Cm_de -0.11 against the doublet's -0.56 by least squares). Variables absent from
+    ``columns`` are left as they are (the search skips them)."""
+    out = []
+    for v in selection.candidates:
+        x = columns.get(v)
+        if x is None:
+            out.append(v)
+            continue
+        x = np.asarray(x, dtype=float)
+        shares = cv_scored_share(columns, x, maneuvers, selection, seed=seed, cells=cells,
+                                 by="variation")
+        if not _untested(x, maneuvers, shares):
+            out.append(v)
+    return tuple(out)
+
+
 def _unscored_note(c: str, best: Structure, untested: list, types: np.ndarray | None,
                    maneuvers: np.ndarray) -> str:
     """The note on a coefficient whose exciting maneuvers (``untested``: :func:`_untested`)
@@ -1213,8 +1230,9 @@ def _unscored_note(c: str, best: Structure, untested: list, types: np.ndarray | 
             f"that excite it most ({named}): each lies alone in its envelope cells, so no "
             "structure could be tested where it matters; the search started from the "
             "linear model of its terms, kept them with constant coefficients (nothing "
-            "could test their removal or their change across the envelope), added none, "
-            f"and chose {best.label()} on the other maneuvers, "
+            "could test their removal or their change across the envelope), offered only "
+            "the variables that scored maneuvers move, and chose "
+            f"{best.label()} on the other maneuvers, "
             "without the hinge start (its forward pass would place knots on those "
             "maneuvers that nothing judges); fly those inputs twice per test point to "
             "test a scheduled structure")
