@@ -1129,12 +1129,12 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
         # cross-validation cannot judge them (the 737 six-point course's Cn); nor can it
         # judge the removal of a term that only those maneuvers excite, nor how its
         # derivative changes across the envelope, nor what a new term takes from it: the
-        # linear terms stay, with constant coefficients, and the search only shapes the
-        # constant term along the scheduling variable (the T37 six-point still-air
-        # course's Cm lost its elevator and pitch rate, Cm_alpha -0.01 against the
-        # truth's -0.70; kept, the elevator's coefficient varied with alpha and took the
-        # trim curve; constant, alpha-dot terms added on the scored maneuvers took the
-        # doublet's moment: Cm_de -0.11 against the simulator's -0.96)
+        # linear terms stay, with constant coefficients, and the search is offered only
+        # the variables that scored maneuvers move (the T37 six-point still-air course's
+        # Cm lost its elevator and pitch rate, Cm_alpha -0.01 against the truth's -0.70;
+        # kept, the elevator's coefficient varied with alpha and took the trim curve;
+        # constant, alpha-dot terms added on the scored maneuvers took the doublet's
+        # moment: Cm_de -0.11 against the simulator's -0.96)
         start = linear_start(start, constant=True)
         selection = replace(selection, hinge_start=False,
                             kept_multipliers=tuple(start.multipliers),
