@@ -468,6 +468,10 @@ def test_thrust_left_in_cx_is_said_with_what_the_search_was_offered(table):
     assert sum("offered the fuel-flow thrust coefficient tc_ff" in w
                for w in res.warnings) == 1
     assert "tc_ff" in res.identification.columns
+    res = identify(flow.assign(n1=fan["n1"]), meta, settings=settings)
+    assert sum("tc_ff = fuel_flow * 4e4 m/s / (qbar S) and the fan-speed thrust coefficient "
+               "tc_n1" in w for w in res.warnings) == 1
+    assert {"tc_ff", "tc_n1"} <= set(res.identification.columns)
     meta["reconstruction"]["thrust"] = "columns"
     res = identify(flow, meta, settings=settings)
     assert not any("holds the thrust" in w for w in res.warnings)

@@ -48,7 +48,16 @@ def test_without_thrust_the_fuel_flow_stands_in():
     assert list(tc) == ["tc_n1"]
     np.testing.assert_allclose(tc["tc_n1"], (fan["n1"] * 340.294 / fan["tas"]) ** 2,
                                rtol=1e-15)
-    assert list(thrust_coefficient(fan.assign(fuel_flow=0.4), {"S": 30.0})) == ["tc_ff"]
+    # both: both are offered (which one follows the thrust is the engine's)
+    two = thrust_coefficient(fan.assign(fuel_flow=0.4), {"S": 30.0})
+    assert list(two) == ["tc_ff", "tc_n1"]
+    np.testing.assert_allclose(two["tc_n1"], tc["tc_n1"], rtol=1e-15)
+    # the fuel flow without a density gives no tc_ff, the fan speed still its tc_n1
+    assert list(thrust_coefficient(fan.assign(fuel_flow=0.4).drop(columns="rho"),
+                                   {"S": 30.0})) == ["tc_n1"]
+    # the thrust itself: no stand-in at all
+    assert list(thrust_coefficient(fan.assign(fuel_flow=0.4, thrust_x=1.0e4),
+                                   {"S": 30.0})) == ["tc"]
 
 
 def _offered_or_not(coefficient: str, variable: str, data: dict, d: dict) -> dict:
