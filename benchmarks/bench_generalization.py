@@ -179,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true",
                     help="smoke run: f16 and c172p, 16 maneuvers, the alternative design")
     ap.add_argument("--aircraft", default=None,
-                    help="comma-separated aircraft (default: f16,global5000,c172p,A4,737)")
+                    help="comma-separated aircraft (default: f16,global5000,c172p,A4,737,T37)")
     ap.add_argument("--variants", default=None,
                     help=f"comma-separated variants from {','.join(VARIANTS)} (default: all)")
     ap.add_argument("--maneuvers", type=int, default=None, help="maneuvers per campaign (40)")
@@ -192,8 +192,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="identify's TOML config (docs/identification.md) to measure an "
                          "option; the defaults otherwise (write to another --out)")
     args = ap.parse_args(argv)
-    aircraft = (args.aircraft.split(",") if args.aircraft
-                else ["f16", "c172p"] if args.quick else ["f16", "global5000", "c172p", "A4", "737"])
+    aircraft = (args.aircraft.split(",") if args.aircraft else ["f16", "c172p"] if args.quick
+                else ["f16", "global5000", "c172p", "A4", "737", "T37"])
     variants = (args.variants.split(",") if args.variants
                 else ["alternative-gps", "alternative-nogps"] if args.quick else list(VARIANTS))
     maneuvers = args.maneuvers or (16 if args.quick else 40)
