@@ -124,6 +124,31 @@ def test_thrust_in_cx_follows_the_fuel_flow():
     assert errors[True] < 1e-3 < errors[False] / 3, errors
 
 
+def test_thrust_in_cx_follows_the_fan_speed_where_the_fuel_flow_does_not():
+    """A jet whose thrust follows N1 from test point to test point while its fuel-flow
+    channel hardly moves (as on the simulated T-37's courses): offered both stand-ins, the
+    default search takes tc_n1 and reaches the noise; offered tc_ff alone (the rule before
+    stop 60) the throttle's share of CX is left unexplained."""
+    def point(wave, rng):
+        alpha = wave(0.03, rng.uniform(0.0, 0.1))
+        de, qhat = wave(0.05, rng.uniform(-0.05, 0.0)), wave(0.004)
+        mach = np.full_like(alpha, rng.uniform(0.3, 0.7)) + wave(0.01)
+        rho = rng.uniform(0.6, 1.2)
+        tas = mach * 330.0
+        qbar_s = 0.5 * rho * tas ** 2 * 30.0
+        n1 = np.full_like(alpha, rng.uniform(0.6, 0.95)) + wave(0.005)     # throttle
+        fuel_flow = 0.108 + wave(0.002)                # a channel that barely moves
+        tc_n1 = (n1 * 340.294 / tas) ** 2
+        truth = -0.03 + 0.3 * alpha + 2.0 * alpha ** 2 - 0.01 * de + 0.012 * tc_n1
+        return {"alpha": alpha, "mach": mach, "de": de, "qhat": qhat, "tc_n1": tc_n1,
+                "tc_ff": fuel_flow * SPECIFIC_THRUST / qbar_s, "truth": truth}
+
+    d = _test_points(20, 400, 0.05, 5, point)
+    data = {k: d[k] for k in ("alpha", "mach", "de", "qhat", "tc_ff", "tc_n1")}
+    errors = _offered_or_not("CX", "tc_n1", data, d)
+    assert errors[True] < 1e-3 < errors[False] / 3, errors
+
+
 def test_the_size_budget_counts_the_time_flown_not_the_samples():
     """20 test points of 18 s at 10 Hz: 3600 samples allow 180 coefficients at 20 samples
     each, the size of CX's starting structure, so the search cannot add tc_ff to it (only
