@@ -715,10 +715,11 @@ def test_a_vane_scale_neither_given_nor_estimated_is_said():
     assert _vane_scale_note(data, IdentificationSettings(), {}) == ""     # no record
 
 
-def test_an_imported_record_without_the_imu_position_is_told_what_it_costs_cy():
-    """The side force's lever-arm part per metre along x is m (r' + p q) / (qbar S): the
-    note gives its RMS (here exactly 2e-3 per metre: constant columns), only for an
-    imported record whose metadata does not place the IMU, and only when CY is modelled."""
+def test_an_imported_record_without_the_imu_position_is_told_what_it_costs():
+    """The side force's lever-arm part per metre along x is m (r' + p q) / (qbar S), the
+    normal force's m (p r - q') / (qbar S): the note gives their RMS (here exactly 2e-3
+    and 4e-3 per metre: constant columns), only for an imported record whose metadata does
+    not place the IMU, and only for the force coefficients modelled."""
     import pandas as pd
 
     n = 50
@@ -737,6 +738,16 @@ def test_an_imported_record_without_the_imu_position_is_told_what_it_costs_cy():
     assert _imu_position_note(data, IdentificationSettings(coefficients=("CX", "Cm")),
                               meta) == ""
     assert _imu_position_note(data.drop(columns="rdot"), IdentificationSettings(), meta) == ""
+    # the normal force: m (p r - q') / (qbar S) per metre along x, -m (p^2 + q^2) along z
+    pitch = data.assign(qdot=np.full(n, 0.2), q=np.full(n, 0.1), CZ=np.linspace(-0.5, 0.0, n))
+    both = _imu_position_note(pitch, IdentificationSettings(), meta)
+    assert re.search(r"along x moves CY by 2\.0e-03 RMS .*; along x CZ by 4\.0e-03 RMS in "
+                     r"these data \(0\.03 of CZ's own spread\), along z by 2\.0e-04; ", both), both
+    assert "normal-force model takes it into its alpha, pitch-rate and elevator" in both
+    only = _imu_position_note(pitch, IdentificationSettings(coefficients=("CZ", "Cm")), meta)
+    assert "moves CZ by 4.0e-03" in only and "CY" not in only, only
+    assert _imu_position_note(pitch.drop(columns="qdot"),
+                              IdentificationSettings(coefficients=("CZ",)), meta) == ""
 
 
 def test_a_doublet_scored_only_in_its_trimmed_lead_in_counts_as_unscored():

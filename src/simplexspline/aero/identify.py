@@ -881,42 +881,60 @@ def _vane_scale_note(data, settings: IdentificationSettings, meta: Mapping,
 
 def _imu_position_note(data, settings: IdentificationSettings, meta: Mapping) -> str:
     """An imported record whose accelerometers' position is not given: how much each metre
-    of it along x and z moves CY (the note), or '' (given, simulated data, CY not
+    of it along x and z moves CY and CZ (the note), or '' (given, simulated data, neither
     modelled, or a column missing).
 
     The specific force at an IMU ``r`` from the c.g. holds ``omega' x r + omega x (omega x
-    r)``: its lateral part is ``(r' + p q) x - (p' - q r) z`` at ``y = 0``. The yaw and roll
-    accelerations are themselves linear in the sideslip, the rates and the controls, so
-    the side-force model takes that part into its derivatives, and no aerodynamic data
-    can take it out. On a still-air flight-test course (`bench_whole_flight.py --design
-    eigenmotion --maneuvers 6 --turns --turbulence none`: real-like sensors, the IMU 0.6 m
-    ahead of and 0.2 m below the c.g.) each metre along x is 1.4e-4 of CY RMS and along z
-    5.0e-4, against a noise of about 3e-4."""
-    if "CY" not in settings.coefficients or "import" not in meta:
+    r)``: at ``y = 0`` its lateral part is ``(r' + p q) x - (p' - q r) z``, its normal part
+    ``(p r - q') x - (p^2 + q^2) z``. The angular accelerations are themselves linear in
+    the flow angles, the rates and the controls, so the force models take that part into
+    their derivatives, and no aerodynamic data can take it out. On a still-air flight-test
+    course (`bench_whole_flight.py --design eigenmotion --maneuvers 6 --turns --turbulence
+    none`: real-like sensors, the IMU 0.6 m ahead of and 0.2 m below the c.g.) each metre
+    along x is 1.4e-4 of CY RMS and along z 5.0e-4, against a noise of about 3e-4; on the
+    Cessna 172's (seed 5, maneuver list) the normal part took CL_alpha to 4.55 /rad, 4.81
+    with the installation given (truth 5.27): the pitch acceleration in an elevator
+    doublet is about ``M_alpha alpha``, so ``-x q'`` is a lift slope of its own."""
+    if "import" not in meta:
         return ""
     geo = meta.get("sensor_geometry") or {}
     if (geo.get("imu") or {}).get("position_m") is not None:
         return ""
-    need = ("mass", "rho", "tas", "p", "q", "r", "pdot", "rdot", "CY")
-    if not all(c in data.columns for c in need) or "S" not in meta:
+    base = ("mass", "rho", "tas", "p", "q", "r")
+    if not all(c in data.columns for c in base) or "S" not in meta:
         return ""
-    col = {c: data[c].to_numpy(dtype=float) for c in need}
+    col = {c: data[c].to_numpy(dtype=float) for c in data.columns
+           if c in (*base, "pdot", "qdot", "rdot", "CY", "CZ")}
     scale = col["mass"] / (0.5 * col["rho"] * col["tas"] ** 2 * float(meta["S"]))
-    per_x = scale * (col["rdot"] + col["p"] * col["q"])
-    per_z = -scale * (col["pdot"] - col["q"] * col["r"])
-    ok = np.isfinite(per_x) & np.isfinite(per_z) & np.isfinite(col["CY"])
-    if ok.sum() < 2:
+    p, q, r = col["p"], col["q"], col["r"]
+    arms = {}
+    if "CY" in settings.coefficients and all(c in col for c in ("pdot", "rdot", "CY")):
+        arms["CY"] = (scale * (col["rdot"] + p * q), -scale * (col["pdot"] - q * r))
+    if "CZ" in settings.coefficients and all(c in col for c in ("qdot", "CZ")):
+        arms["CZ"] = (scale * (p * r - col["qdot"]), -scale * (p ** 2 + q ** 2))
+    parts = []
+    for c, (per_x, per_z) in arms.items():
+        ok = np.isfinite(per_x) & np.isfinite(per_z) & np.isfinite(col[c])
+        if ok.sum() < 2:
+            continue
+        rx = float(np.sqrt(np.mean(per_x[ok] ** 2)))
+        rz = float(np.sqrt(np.mean(per_z[ok] ** 2)))
+        spread = float(np.std(col[c][ok]))
+        share = f" ({rx / spread:.2f} of {c}'s own spread)" if spread > 0 else ""
+        parts.append((c, f"{c} by {rx:.1e} RMS in these data{share}, along z by {rz:.1e}"))
+    if not parts:
         return ""
-    rx = float(np.sqrt(np.mean(per_x[ok] ** 2)))
-    rz = float(np.sqrt(np.mean(per_z[ok] ** 2)))
-    spread = float(np.std(col["CY"][ok]))
-    share = f" ({rx / spread:.2f} of CY's own spread)" if spread > 0 else ""
-    return (f"the accelerometers' position is not given (metadata sensor_geometry.imu): "
-            f"each metre of the IMU's distance from the c.g. along x moves CY by "
-            f"{rx:.1e} RMS in these data{share}, along z by {rz:.1e}; the side-force model takes it into its sideslip, rate and control "
-            "derivatives, and the data cannot take it out (the yaw and roll accelerations "
-            "are linear in the same variables): give [metadata.sensor_geometry.imu] "
-            "position_m from the installation drawings")
+    takes = {"CY": "the side-force model takes it into its sideslip, rate and control "
+                   "derivatives",
+             "CZ": "the normal-force model takes it into its alpha, pitch-rate and elevator "
+                   "derivatives (CL_alpha among them)"}
+    return ("the accelerometers' position is not given (metadata sensor_geometry.imu): "
+            "each metre of the IMU's distance from the c.g. along x moves "
+            + "; along x ".join(text for _, text in parts) + "; "
+            + ", ".join(takes[c] for c, _ in parts)
+            + ", and the data cannot take it out (the angular accelerations are linear in "
+            "the same variables): give [metadata.sensor_geometry.imu] position_m from the "
+            "installation drawings")
 
 
 @dataclass(frozen=True)
