@@ -825,14 +825,14 @@ def _thrust_note(data, settings: IdentificationSettings, rec_note: Mapping,
     # moment was 0.8-1.8e-3 of Cm, from test point to test point, about its noise
     holds = ("CX holds the thrust and Cm its pitching moment (a thrust line off the c.g.) "
              "(no thrust columns, no thrust model")
-    if {FUEL_FLOW_THRUST_COEFFICIENT, FAN_SPEED_THRUST_COEFFICIENT} <= set(data.columns):
-        return (f"{holds}); the search is offered the fuel-flow thrust coefficient tc_ff = "
-                "fuel_flow * 4e4 m/s / (qbar S) and the fan-speed thrust coefficient tc_n1 "
-                "= (n1 a0 / V)^2 so that they may follow the throttle, and takes what the "
-                "data support")
     if FUEL_FLOW_THRUST_COEFFICIENT in data.columns:
+        both = FAN_SPEED_THRUST_COEFFICIENT in data.columns
         return (f"{holds}); the search is offered the fuel-flow thrust coefficient tc_ff = "
-                "fuel_flow * 4e4 m/s / (qbar S) so that they may follow the throttle")
+                "fuel_flow * 4e4 m/s / (qbar S)"
+                + (" and the fan-speed thrust coefficient tc_n1 = (n1 a0 / V)^2" if both
+                   else "")
+                + " so that they may follow the throttle"
+                + (", and takes what the data support" if both else ""))
     if FAN_SPEED_THRUST_COEFFICIENT in data.columns:
         return (f"{holds}, no fuel flow); the search is offered the fan-speed thrust "
                 "coefficient tc_n1 = (n1 a0 / V)^2 (a turbofan's) so that they may follow "

@@ -98,21 +98,25 @@ def thrust_coefficient(df, metadata: Mapping) -> dict[str, np.ndarray]:
     if "tas" not in df.columns:
         return {}
     tas = df["tas"].to_numpy(dtype=float)
-    with_air = "rho" in df.columns and "S" in metadata
-    qbar = 0.5 * df["rho"].to_numpy(dtype=float) * tas ** 2 if with_air else None
-    out = {}
-    for name, column, scale in ((THRUST_COEFFICIENT, "thrust_x", 1.0),
-                                (FUEL_FLOW_THRUST_COEFFICIENT, "fuel_flow", SPECIFIC_THRUST)):
-        if column not in df.columns or not with_air:
-            continue
+
+    def per_qbar_s(column: str, scale: float):
+        """``column * scale / (qbar S)``, or None (no such data, or no rho or S)."""
+        if column not in df.columns or "rho" not in df.columns or "S" not in metadata:
+            return None
         force = df[column].to_numpy(dtype=float) * scale
         if not np.isfinite(force).any():
-            continue
+            return None
+        qbar = 0.5 * df["rho"].to_numpy(dtype=float) * tas ** 2
         with np.errstate(divide="ignore", invalid="ignore"):
-            out[name] = force / (qbar * float(metadata["S"]))
-        if name == THRUST_COEFFICIENT:
-            return out          # the thrust itself: no stand-in
-        break
+            return force / (qbar * float(metadata["S"]))
+
+    tc = per_qbar_s("thrust_x", 1.0)
+    if tc is not None:
+        return {THRUST_COEFFICIENT: tc}           # the thrust itself: no stand-in
+    out = {}
+    tc_ff = per_qbar_s("fuel_flow", SPECIFIC_THRUST)
+    if tc_ff is not None:
+        out[FUEL_FLOW_THRUST_COEFFICIENT] = tc_ff
     if "n1" in df.columns:
         n1 = df["n1"].to_numpy(dtype=float)
         if np.isfinite(n1).any():
