@@ -83,6 +83,24 @@ def test_the_forward_pass_finds_a_product_of_kinks_and_the_fit_follows_it():
     assert np.sqrt(np.mean((fit.predict(cols) - truth) ** 2)) < 2e-3
 
 
+@pytest.mark.parametrize("share", [0.23, 0.41, 0.57, 0.66, 0.79])
+def test_a_kink_is_placed_on_its_breakpoint(share):
+    """The forward pass scores a hinge together with its plain partner (as MARS scores a
+    pair of hinges): scored alone, ``|alpha-k|`` must also stand in for the straight line
+    beside the kink, and the pass placed these kinks 0.016-0.032 rad off, two to four steps
+    of the knot grid."""
+    d = _maneuvers()
+    a = d["alpha"]
+    k0 = float(np.quantile(a, share))
+    y = 0.5 * np.abs(a - k0) + 0.2 * a
+    terms = forward_hinges({"alpha": a, "de": d["de"]}, y, "CX", ["alpha", "de"],
+                           max_terms=3)
+    knots = [k for t in terms for v, k in t if v == "alpha" and k is not None]
+    assert knots
+    step = float(np.median(np.diff(np.quantile(a, hinge_start.HINGE_QUANTILES))))
+    assert min(abs(k - k0) for k in knots) < 0.6 * step
+
+
 def test_the_pruning_path_removes_one_term_at_a_time_and_its_error_grows():
     d = _maneuvers(n_man=6, samples=300)
     y = _table_truth(d)

@@ -127,6 +127,32 @@ class _HingeSums:
         rh = self._split_sum(self.a * r[self.col.order]) - self.s1 / len(r) * float(r.sum())
         return rh, self.hh
 
+    def cross(self, base: np.ndarray) -> np.ndarray:
+        """``h_k . base`` for a centred column ``base`` (N,), shape (K,)."""
+        return self._split_sum(self.a * base[self.col.order])
+
+
+def _pair_gains(rh: np.ndarray, hh: np.ndarray, rb: float, bb: float, hb: np.ndarray,
+                partner_taken: bool) -> np.ndarray:
+    """What each knot's hinge explains of the residual with its plain partner ``base``
+    (centred; ``rb = r . base``, ``bb = base . base``, ``hb = h_k . base``), shape (K,).
+
+    With the partner still free, the pair is scored together, as MARS scores a pair of
+    hinges: the projection of the residual on ``span(h_k, base)``. A hinge alone must also
+    stand in for the straight line its partner would give, which favours knots at the
+    data's ends (measured: single kinks placed 0.016-0.032 rad off in alpha, 2-4 steps of
+    the quantile grid, where the pair puts them on the breakpoint). With the partner in
+    the basis already (the residual orthogonal to it), the hinge is scored orthogonal to
+    the partner."""
+    if partner_taken:
+        den = hh - hb * hb / bb
+        return np.where(den > 1e-12 * hh, rh * rh / np.where(den > 0, den, 1.0), 0.0)
+    det = hh * bb - hb * hb
+    ok = det > 1e-12 * np.maximum(hh * bb, 1e-300)
+    two = (rh * rh * bb - 2.0 * rh * rb * hb + rb * rb * hh) / np.where(ok, det, 1.0)
+    one = np.where(hh > 0, rh * rh / np.where(hh > 0, hh, 1.0), 0.0)
+    return np.where(ok, np.maximum(two, one), np.maximum(one, rb * rb / bb))
+
 
 def _offers(parent: tuple, v: str, knots: np.ndarray, want: int) -> tuple:
     """What ``parent`` times a factor in ``v`` may add, of the coefficient's parity
@@ -221,8 +247,9 @@ def forward_hinges(columns: Mapping, y: np.ndarray, coefficient: str,
         ss = float(resid @ resid)
         if not ss > 0:
             break
-        # every candidate scored against the residual alone (cheap), then the best ones
-        # exactly, orthogonalised against the basis
+        # every candidate scored against the residual (cheap: a hinge with its plain
+        # partner, :func:`_pair_gains`), then the best ones exactly, orthogonalised against
+        # the basis
         scored = []
         for parent, pv in zip(terms, values):
             if len(parent) >= max_degree:
@@ -230,21 +257,28 @@ def forward_hinges(columns: Mapping, y: np.ndarray, coefficient: str,
             for v in variables:
                 if (parent, v) not in offers:
                     cand, kinked, ks = _offers(parent, v, knots[v], want)
-                    offers[parent, v] = (cand, kinked,
-                                         _HingeSums(orders[v], pv, ks) if kinked else None)
-                cand, kinked, sums = offers[parent, v]
-                if cand in taken:
+                    sums = _HingeSums(orders[v], pv, ks) if kinked else None
+                    # the plain partner parent * v (centred), which a pair is scored with
+                    raw = pv * cols[v]
+                    base = raw - raw.mean()
+                    bb = float(base @ base)
+                    if not (cand is not None and bb > 1e-12 * float(raw @ raw)):
+                        bb = 0.0                     # no partner (parity) or a constant
+                    hb = sums.cross(base) if sums is not None and bb > 0 else None
+                    offers[parent, v] = (cand, kinked, sums, bb, hb)
+                cand, kinked, sums, bb, hb = offers[parent, v]
+                partner_taken = cand in taken
+                if partner_taken:
                     cand = None
                 free = np.array([t not in taken for t in kinked], dtype=bool)
-                if cand is not None:
-                    base = pv * cols[v]
-                    base = base - base.mean()
-                    bb = float(base @ base)
-                    if bb > 0:
-                        scored.append((float(resid @ base) ** 2 / bb, (cand,)))
+                rb = float(resid @ (pv * cols[v])) if bb > 0 else 0.0   # resid is centred
+                if cand is not None and bb > 0:
+                    scored.append((rb ** 2 / bb, (cand,)))
                 if free.any():
                     rh, hh = sums.products(resid)
-                    gain = np.where(free & (hh > 0), rh ** 2 / np.where(hh > 0, hh, 1.0), 0.0)
+                    gain = (_pair_gains(rh, hh, rb, bb, hb, partner_taken) if bb > 0 else
+                            np.where(hh > 0, rh ** 2 / np.where(hh > 0, hh, 1.0), 0.0))
+                    gain = np.where(free & (hh > 0), gain, 0.0)
                     for j in np.argsort(gain)[::-1][:min(3, int(free.sum()))]:
                         pair = (kinked[j],) + ((cand,) if cand is not None else ())
                         scored.append((float(gain[j]), pair))
