@@ -87,8 +87,8 @@ def test_the_forward_pass_finds_a_product_of_kinks_and_the_fit_follows_it():
 def test_a_kink_is_placed_on_its_breakpoint(share):
     """The forward pass scores a hinge together with its plain partner (as MARS scores a
     pair of hinges): scored alone, ``|alpha-k|`` must also stand in for the straight line
-    beside the kink, and the pass placed these kinks 0.016-0.032 rad off, two to four steps
-    of the knot grid."""
+    beside the kink, and the pass placed these kinks 0.006-0.026 rad off, one to three and
+    a half steps of the knot grid (0.0075 rad here)."""
     d = _maneuvers()
     a = d["alpha"]
     k0 = float(np.quantile(a, share))
