@@ -78,6 +78,7 @@ from simplexspline._version import __version__
 from simplexspline.errors import FlightDataError, InputError, SimplexSplineError
 from simplexspline.aero.report.page import write_report
 from simplexspline.aero.reconstruction.reconstruct import reconstruct
+from simplexspline.aero.reconstruction.sensor_corrections import lever_arm_acceleration
 from simplexspline.spline import kernels
 
 __all__ = [
@@ -906,12 +907,22 @@ def _imu_position_note(data, settings: IdentificationSettings, meta: Mapping) ->
     col = {c: data[c].to_numpy(dtype=float) for c in data.columns
            if c in (*base, "pdot", "qdot", "rdot", "CY", "CZ")}
     scale = col["mass"] / (0.5 * col["rho"] * col["tas"] ** 2 * float(meta["S"]))
-    p, q, r = col["p"], col["q"], col["r"]
+    rates = np.column_stack([col[c] for c in ("p", "q", "r")])
+    zero = np.zeros(len(scale))
+
+    def per_metre(axis: int, used: tuple) -> tuple:
+        """The coefficient along body ``axis`` per metre of the IMU along x and along z;
+        only the angular accelerations ``used`` enter (the others, unused there, zero)."""
+        wdot = np.column_stack([col[c] if c in used else zero
+                                for c in ("pdot", "qdot", "rdot")])
+        return tuple(scale * lever_arm_acceleration(rates, wdot, e)[:, axis]
+                     for e in ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)))
+
     arms = {}
     if "CY" in settings.coefficients and all(c in col for c in ("pdot", "rdot", "CY")):
-        arms["CY"] = (scale * (col["rdot"] + p * q), -scale * (col["pdot"] - q * r))
+        arms["CY"] = per_metre(1, ("pdot", "rdot"))
     if "CZ" in settings.coefficients and all(c in col for c in ("qdot", "CZ")):
-        arms["CZ"] = (scale * (p * r - col["qdot"]), -scale * (p ** 2 + q ** 2))
+        arms["CZ"] = per_metre(2, ("qdot",))
     parts = []
     for c, (per_x, per_z) in arms.items():
         ok = np.isfinite(per_x) & np.isfinite(per_z) & np.isfinite(col[c])

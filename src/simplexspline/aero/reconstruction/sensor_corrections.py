@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["undo_lag", "rotation_velocity", "specific_force_at_cg", "estimate_lag",
+__all__ = ["undo_lag", "rotation_velocity", "lever_arm_acceleration", "specific_force_at_cg",
+           "estimate_lag",
            "estimate_lag_from_response"]
 
 
@@ -80,6 +81,28 @@ def rotation_velocity(rates: np.ndarray, arm: np.ndarray) -> np.ndarray:
     return np.cross(rates, np.broadcast_to(arm, rates.shape))
 
 
+def lever_arm_acceleration(rates: np.ndarray, wdot: np.ndarray, arm: np.ndarray
+                           ) -> np.ndarray:
+    """``omegadot x r + omega x (omega x r)`` [m/s^2]: what accelerometers at arm ``r``
+    read beyond the specific force at the c.g.
+
+    Parameters
+    ----------
+    rates : (n, 3) ndarray
+        Body rates [rad/s].
+    wdot : (n, 3) ndarray
+        Angular accelerations [rad/s^2].
+    arm : (3,) or (n, 3) ndarray
+        Accelerometer position from the c.g., body axes [m].
+
+    Returns
+    -------
+    (n, 3) ndarray
+    """
+    r = np.broadcast_to(arm, rates.shape)
+    return np.cross(wdot, r) + np.cross(rates, np.cross(rates, r))
+
+
 def specific_force_at_cg(acc: np.ndarray, rates: np.ndarray, dt: float,
                          arm: np.ndarray) -> np.ndarray:
     """Specific force at the c.g. from accelerometers at arm ``r``.
@@ -102,9 +125,8 @@ def specific_force_at_cg(acc: np.ndarray, rates: np.ndarray, dt: float,
     -------
     (n, 3) ndarray
     """
-    r = np.broadcast_to(arm, rates.shape)
     wdot = np.gradient(rates, dt, axis=0) if len(rates) > 1 else np.zeros_like(rates)
-    return acc - np.cross(rates, np.cross(rates, r)) - np.cross(wdot, r)
+    return acc - lever_arm_acceleration(rates, wdot, arm)
 
 
 def estimate_lag(residual: np.ndarray, rate_of_change: np.ndarray,
