@@ -75,12 +75,13 @@ def test_quiet_window_must_be_a_number(tmp_path, value):
                                          f"quiet_s = {value}\n"))
 
 
-def test_a_turn_is_found_by_its_heading_change_and_keeps_its_steady_part():
+def test_a_turn_is_found_by_its_heading_change_and_absorbs_its_entry_and_exit():
     """A 90 deg turn at 1.5 deg/s (rolled in and out over 5 s) and an aileron doublet that
     moves the heading back and forth: one turn, from its roll-in to its roll-out; the
-    doublet is not a turn. Trimmed by maneuvers detected at its entry and exit, the turn
-    keeps its longest free part."""
-    from simplexspline.aero.data.segmentation import Segment, detect_turns, outside
+    doublet is not a turn. The maneuvers detected at its entry and exit become part of it
+    (one maneuver from the roll-in to the roll-out), a maneuver elsewhere stays."""
+    from simplexspline.aero.data.segmentation import (Segment, absorb, absorb_turns,
+                                                      detect_turns)
     from simplexspline.aero.reconstruction.wind_triangle import MIN_HEADING_CHANGE
 
     t = np.arange(0.0, 350.0, 0.1)
@@ -98,9 +99,14 @@ def test_a_turn_is_found_by_its_heading_change_and_keeps_its_steady_part():
     assert 96.0 < turns[0].start < 104.0 and 161.0 < turns[0].end < 169.0
     assert detect_turns(t, {"q": data["q"]}, np.ones(t.size, bool), min_change=0.3) == []
     entry, exit_ = Segment(95.0, 108.0, "excitation-aileron"), Segment(158.0, 170.0, "x")
-    steady = outside(turns[0], [entry, exit_])
-    assert steady == Segment(108.0, 158.0, "turn")
-    assert outside(turns[0], [Segment(0.0, 400.0, "flight")]) is None
+    other = Segment(250.0, 262.0, "excitation-aileron")
+    whole, rest = absorb(turns[0], [exit_, other, entry])
+    assert whole == Segment(95.0, 170.0, "turn") and rest == [other]
+    assert absorb(turns[0], [other]) == (turns[0], [other])
+    # an S-turn: two turns whose padding overlaps become one, with what they overlap
+    second = Segment(168.0, 200.0, "turn")
+    merged, n = absorb_turns([entry, exit_, other], [turns[0], second])
+    assert merged == [Segment(95.0, 200.0, "turn"), other] and n == 1
 
 
 def test_the_turns_between_detected_maneuvers_become_maneuvers_unless_switched_off(tmp_path):

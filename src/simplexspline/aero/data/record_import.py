@@ -334,17 +334,15 @@ def import_record(mapping: str | os.PathLike | ImportMapping) -> ImportResult:
             pad_s=seg.pad_s, merge_s=seg.merge_s, quiet_s=seg.quiet_s)
         detected = segments
         if seg.turns:
-            # the turns between the maneuvers observe the wind of a record without heading
-            turns = [u for u in (segmentation.outside(u, segments) for u in
-                                 segmentation.detect_turns(grid, cols, usable,
-                                                           min_change=MIN_HEADING_CHANGE,
-                                                           pad_s=seg.pad_s))
-                     if u is not None]
-            if turns:
-                notes.append(f"{len(turns)} turn(s) cut as maneuvers of type 'turn' (their "
-                             "steady part between the detected maneuvers: without a heading "
-                             "channel they observe the wind)")
-            segments = sorted(segments + turns, key=lambda x: x.start)
+            # the turns observe the wind of a record without heading: each one maneuver
+            segments, n_turns = segmentation.absorb_turns(
+                segments, segmentation.detect_turns(grid, cols, usable,
+                                                    min_change=MIN_HEADING_CHANGE,
+                                                    pad_s=seg.pad_s))
+            if n_turns:
+                notes.append(f"{n_turns} turn(s) cut as maneuvers of type 'turn' (each from "
+                             "its roll-in to its roll-out, the maneuvers detected there with "
+                             "it: without a heading channel they observe the wind)")
         if seg.steady:
             # the stationary measurements: a vane's calibration and the lift curve
             steady = segmentation.detect_steady(grid, cols, usable, segments)
