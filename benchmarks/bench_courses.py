@@ -11,7 +11,9 @@ by excitation). Prints one row per course and variant, and the totals: negative 
 geometric mean of RMS vs truth / noise, CL_alpha and Cm_alpha at the reference condition
 against the simulator's, and identify's jackknife standard errors of the two (at the
 identification data's medians): how often the truth lies within two of them, and how
-often a wrong sign of Cm_alpha goes unflagged (zero outside two standard errors).
+often a wrong sign of Cm_alpha goes unflagged (zero outside two standard errors); and the
+reconstructed alpha, beta and airspeed's RMS errors against the truth (issue 16 asks
+them below the raw sensors'), with how often the airspeed's is.
 
 Usage::
 
@@ -52,11 +54,12 @@ def main() -> None:
     warnings.simplefilter("ignore")
     head = ("| course | variant | " + " | ".join(f"{c} R2 (true/noise)" for c in COEF)
             + " | CL_alpha (truth) | Cm_alpha (truth) | jackknife CL_alpha; Cm_alpha "
-            "| s (course) |")
+            "| reconstructed alpha, beta [rad], V [m/s] RMS error | s (course) |")
     lines = [head, "|---" * (head.count("|") - 1) + "|"]
     r2s, ratios = [], []
     within = {"CL_alpha": [], "Cm_alpha": []}
     wrong_sign = {"flagged": 0, "unflagged": 0}
+    rec_errors = []         # (alpha, beta, V) reconstructed, (alpha, V) raw
     t_all = time.perf_counter()
     for spec in args.courses.split(";"):
         aircraft, points, seed, turbulence = spec.split()
@@ -88,9 +91,13 @@ def main() -> None:
                 jack.append(f"{v:.2f} +- {se:.2f}")
                 if n == "Cm_alpha" and np.sign(v) != np.sign(truth[n]):
                     wrong_sign["flagged" if abs(v) < 2 * se else "unflagged"] += 1
+            rec = r["rec"]
+            rec_errors.append((rec["alpha"], rec["beta"], rec["tas"], r["raw"]["alpha"],
+                               r["raw"]["tas"]))
             lines.append(f"| {spec.strip()} | {r['variant']} | " + " | ".join(cells)
                          + f" | {cl:.2f} ({truth['CL_alpha']:.2f}) | {cm:.2f} "
                          f"({truth['Cm_alpha']:.2f}) | {'; '.join(jack) or '-'} "
+                         f"| {rec['alpha']:.1e}, {rec['beta']:.1e}, {rec['tas']:.3f} "
                          f"| {time.perf_counter() - t0:.0f} |")
         print(lines[-1], flush=True)
     print()
@@ -105,6 +112,12 @@ def main() -> None:
                   f"{len(hits)}")
     print(f"Cm_alpha of the wrong sign: {wrong_sign['flagged']} flagged (zero within two "
           f"standard errors), {wrong_sign['unflagged']} not")
+    if rec_errors:
+        e = np.asarray(rec_errors)
+        gm = np.exp(np.mean(np.log(e), axis=0))
+        print(f"reconstruction: V error below the raw airspeed's in "
+              f"{int((e[:, 2] < e[:, 4]).sum())} of {len(e)} (geometric means: alpha "
+              f"{gm[0]:.2e}, beta {gm[1]:.2e} rad, V {gm[2]:.3f} m/s; raw V {gm[4]:.3f})")
 
 
 if __name__ == "__main__":
