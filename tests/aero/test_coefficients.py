@@ -273,3 +273,48 @@ def test_campaigns_record_the_cg_that_fuel_burn_moves(noisy_campaign, ideal_camp
     assert abs(np.corrcoef(per["x_cg"], per["mass"])[0, 1]) > 0.99
     ref = noisy_campaign.attrs["simulator"]["sensor_reference"]
     assert "full fuel" in ref["point"] and len(ref["jsbsim_structural_in"]) == 3
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 9, 40])
+@pytest.mark.parametrize("m, degree", [(1, 1), (1, 2), (2, 2), (2, 4), (3, 3), (3, 4)])
+def test_matched_smoothing_is_what_the_derivative_makes_of_a_piecewise_linear_rate(n, m,
+                                                                                  degree):
+    """For a derivative z linear between samples (any shape, a step inside one sample
+    interval too) and x its exact integral, the sample derivative of x is the matched
+    smoothing of z, at the ends (one-sided windows) as inside; its weights sum to 1."""
+    from simplexspline.aero.data.differentiation import (matched_smoothing, matched_weights,
+                                                         sample_derivative)
+
+    rng = np.random.default_rng(n + 10 * m + 100 * degree)
+    dt = 0.1
+    z = rng.standard_normal(n)
+    z[n // 2:] += 3.0                      # an elevator step
+    x = np.r_[0.0, np.cumsum(0.5 * dt * (z[1:] + z[:-1]))]
+    np.testing.assert_allclose(sample_derivative(x, dt, m, degree),
+                               matched_smoothing(z, m, degree), atol=1e-9)
+    w = min(2 * m + 1, n)
+    for at in range(w):
+        assert matched_weights(np.arange(float(w)), at, min(degree, w - 1)).sum() \
+            == pytest.approx(1.0)
+
+
+def test_matched_smoothing_by_maneuver_follows_the_derivative_s_windows():
+    """Per maneuver, in time order: a 10 Hz maneuver smoothed as its derivative (5 samples),
+    a 100 Hz one unchanged (the schema's forward difference is exact there), NaN for a
+    maneuver's signal with a NaN; a constant stays constant."""
+    from simplexspline.aero.data.differentiation import (matched_by_maneuver,
+                                                         matched_smoothing)
+
+    rng = np.random.default_rng(3)
+    t = np.r_[np.arange(30) * 0.1, np.arange(50) * 0.01, np.arange(20) * 0.1]
+    man = np.repeat([1, 2, 3], [30, 50, 20])
+    z = rng.standard_normal((100, 2))
+    z[80:85, 1] = np.nan
+    order = rng.permutation(100)           # any row order
+    out = np.empty_like(z)
+    out[order] = matched_by_maneuver(man[order], t[order], z[order])
+    np.testing.assert_allclose(out[:30, 0], matched_smoothing(z[:30, 0], 2, 4))
+    np.testing.assert_array_equal(out[30:80], z[30:80])
+    assert np.isnan(out[80:, 1]).all()
+    np.testing.assert_allclose(out[80:, 0], matched_smoothing(z[80:, 0], 2, 4))
+    np.testing.assert_allclose(matched_by_maneuver(man, t, np.full(100, 0.7)), 0.7)

@@ -12,6 +12,7 @@ A config file (all tables and keys optional)::
     reconstruct = "auto"       # 'auto' | 'always' | 'never'
     thin_factor = 2.0
     derivative_folds = 5       # jackknife folds of the derivatives' standard errors (0: none)
+    matched_regressors = false # moment regressors smoothed as the differentiated accelerations
 
     [selection]
     candidates = ["alpha", "beta", "mach", "phat", "qhat", "rhat", "de", "da", "dr",

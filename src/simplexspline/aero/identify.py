@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from simplexspline.aero.data.angle_rates import ANGLE_RATE_NAMES, angle_rates
+from simplexspline.aero.data.differentiation import matched_by_maneuver
 from simplexspline.aero.derivatives.jackknife import (
     FOLD_DIR,
     MIN_FOLDS,
@@ -102,6 +103,8 @@ _RECONSTRUCTED = ("CX", "CY", "CZ", "Cl", "Cm", "Cn", "phat", "qhat", "rhat")
 #: (the sideslip of a record without a vane); the check after the reconstruction has the
 #: last word.
 _RECONSTRUCTED_AIR_DATA = ("alpha", "beta", "tas")
+#: The coefficients whose measurements hold the differentiated angular accelerations.
+MOMENT_COEFFICIENTS = ("Cl", "Cm", "Cn")
 
 
 class ThinDataWarning(UserWarning):
@@ -155,6 +158,20 @@ class IdentificationSettings:
         (:mod:`~simplexspline.aero.derivatives.jackknife`): each model's structure is
         identified again without each fold (fewer folds with fewer maneuvers; 0: no
         standard errors).
+    matched_regressors : bool
+        Where the angular accelerations were differentiated from rates sampled coarser
+        than the simulator's step (a 10 Hz record), search and fit the moment coefficients
+        on regressors smoothed as the derivative smoothed the moments
+        (:func:`_matched_differentiation`); the models are judged against a truth at the
+        instantaneous regressors. Off by default: exact where the moment is linear in its
+        terms (on 10 Hz elevator pulses Cm_de -1.2000 against -1.134 without), and on a
+        simulated 10 Hz T37 course a linear Cm's pitch damping and elevator power came out
+        closer to the truth (Cm_q -30.2 -> -40.2, Cm_de -0.58 -> -0.73; from the true
+        coefficients -43.0, -0.82), but on the 14 flight-test courses of
+        ``bench_courses.py`` the searched models were not closer to the truth (geometric
+        mean of RMS vs truth / noise 1.619 -> 1.635; Cl and Cn closer in 7 of the 8 that
+        moved by more than 10 %, Cm farther in all 6; docs/reconstruction.md, "Angular
+        accelerations").
     """
 
     coefficients: tuple = COEFFICIENTS
@@ -169,6 +186,7 @@ class IdentificationSettings:
     workers: int | None = None
     thin_factor: float = 2.0
     derivative_folds: int = DERIVATIVE_FOLDS
+    matched_regressors: bool = False
 
     def __post_init__(self):
         unknown = [c for c in self.coefficients if c not in COEFFICIENTS]
@@ -537,7 +555,9 @@ def _coefficient_data(df, meta: dict, settings: IdentificationSettings, progress
     note = {"reconstructed": True, "rejected": {int(k): v for k, v in rec.rejected.items()},
             "thrust_subtracted": rec.thrust_subtracted, "accelerations": rec.accelerations,
             "moment_reference": rec.moment_reference, "summary": rec.summary(),
-            "record": rec.data.attrs.get("reconstruction")}
+            "record": rec.data.attrs.get("reconstruction"),
+            "differentiation": {"half_window": rec.settings.diff_half_window,
+                                "degree": rec.settings.diff_degree}}
     return rec.data, note
 
 
@@ -596,10 +616,11 @@ def identify(df, metadata: Mapping | None = None, *,
     columns = {c: ident[c].to_numpy(dtype=float) for c in data.columns
                if c in used or c in settings.selection.candidates}
     columns = {c: v for c, v in columns.items() if np.all(np.isfinite(v))}
+    matched = _matched_differentiation(rec_note, meta) if settings.matched_regressors \
+        else None
     results, notes, sideslip = _fit_all(structures, ident, valid, columns,
-                                        _Splits(coverage, left), settings, source,
-                                        progress,
-                                        log, gusty)
+                                        _Splits(coverage, left, matched), settings, source,
+                                        progress, log, gusty)
     notes = dropped + notes
     prov = {"software": f"simplexspline {__version__}",
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
@@ -959,11 +980,15 @@ class _Coverage:
 
 @dataclass(frozen=True)
 class _Splits:
-    """The shared split's coverage and the maneuvers validated by leaving them out
-    (:attr:`Identification.left_out_validation`, candidates per coefficient)."""
+    """The shared split's coverage, the maneuvers validated by leaving them out
+    (:attr:`Identification.left_out_validation`, candidates per coefficient) and the
+    matched smoothing of the moment coefficients' regressors."""
 
     coverage: _Coverage
     left_out: dict = field(default_factory=dict)
+    #: the differentiation of the angular accelerations that the moment coefficients'
+    #: regressors are smoothed to match (:func:`_matched_differentiation`), or None
+    matched: Mapping | None = None
 
 
 def _split(data, settings: IdentificationSettings, log):
@@ -1001,6 +1026,59 @@ def _split(data, settings: IdentificationSettings, log):
     return ident, valid, coverage, left
 
 
+def _matched_differentiation(rec_note: Mapping, meta: Mapping) -> dict | None:
+    """The settings of the differentiation that gave the angular accelerations in the
+    moment coefficients (``half_window``, ``degree``), or None when they were measured or
+    are not known (coefficients computed elsewhere).
+
+    A derivative of sampled rates is the smoothing ``K * qdot`` of the true one
+    (:func:`~simplexspline.aero.data.differentiation.matched_weights`): at 10 Hz over +-2
+    samples, which an elevator or aileron step fills. The moment coefficients' regressors
+    are then smoothed alike for the search and the fit
+    (:func:`~simplexspline.aero.data.differentiation.matched_by_maneuver`, a no-op at the
+    simulator's step), so that the equation ``K * Cm = Cm(K * x)`` holds for the terms
+    linear in their multipliers; the model is the instantaneous ``Cm(x)``, judged against
+    a truth at the instantaneous regressors. Measured on a simulated 10 Hz T37
+    flight-test course (six test points, still air, seed 62, the maneuver list), a linear
+    least-squares Cm on the reconstructed data gave Cm_q -30.2 and Cm_de -0.58 /rad with
+    instantaneous regressors, -40.2 and -0.73 with matched ones, against -43.0 and -0.82
+    from the true coefficients on the true states.
+    """
+    if rec_note.get("reconstructed"):
+        if rec_note.get("accelerations") != "differentiated":
+            return None
+        return dict(rec_note.get("differentiation") or {"half_window": None, "degree": 4})
+    record = meta.get("reconstruction") or {}
+    if record.get("accelerations") != "differentiated":
+        return None
+    given = record.get("settings") or {}
+    return {"half_window": given.get("diff_half_window"),
+            "degree": given.get("diff_degree", 4)}
+
+
+def _matched_frames(ident, valid, columns: Mapping, matched: Mapping) -> tuple:
+    """(identification frame, validation frame, columns) with the regressors smoothed as
+    the differentiation smoothed the angular accelerations
+    (:func:`~simplexspline.aero.data.differentiation.matched_by_maneuver`, per maneuver).
+    The flow-angle rates are left alone: they are derivatives from the same filter, so
+    already ``K * alpha'``."""
+    names = [v for v in columns if v not in COEFFICIENTS and v not in ANGLE_RATE_NAMES
+             and not v.startswith("true_")]
+    frames = []
+    for frame in (ident, valid):
+        out = frame.copy()
+        if names and len(frame):
+            out[names] = matched_by_maneuver(frame["maneuver"].to_numpy(),
+                                             frame["t"].to_numpy(dtype=float),
+                                             frame[names].to_numpy(dtype=float),
+                                             half_window=matched.get("half_window"),
+                                             degree=int(matched.get("degree") or 4))
+        frames.append(out)
+    cols = {k: (frames[0][k].to_numpy(dtype=float) if k in names else v)
+            for k, v in columns.items()}
+    return frames[0], frames[1], cols
+
+
 def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
                       splits: _Splits, settings: IdentificationSettings, source,
                       progress: bool, log):
@@ -1013,6 +1091,15 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
     workers = min(len(coefs), settings.workers or os.cpu_count() or 1)
     bar = _bar(len(coefs), progress)
     outcomes = {}
+    smoothed: list = []
+
+    def frames_for(c):
+        """(identification, validation, columns, instantaneous frames or None) of c."""
+        if splits.matched is None or c not in MOMENT_COEFFICIENTS:
+            return ident, valid, columns, None
+        if not smoothed:
+            smoothed.extend(_matched_frames(ident, valid, columns, splits.matched))
+        return (*smoothed, (ident, valid))
 
     def done(c, outcome):
         outcomes[c] = outcome
@@ -1040,19 +1127,28 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         gate = ctx.Semaphore(workers) if procs > workers else None
         with ProcessPoolExecutor(max_workers=procs, mp_context=ctx,
                                  initializer=init_worker, initargs=(gate,)) as pool:
-            ident_w, valid_w = slim(ident), slim(valid)
-            futures = {pool.submit(_identify_in_worker, c, structures[c], ident_w, valid_w,
-                                   columns, splits.coverage, settings, has_truth, source,
-                                   splits.left_out.get(c)): c
-                       for c in order}
+            slimmed = {}
+
+            def submit(c):
+                i_c, v_c, cols_c, instant = frames_for(c)
+                key = instant is not None
+                if key not in slimmed:
+                    slimmed[key] = (slim(i_c), slim(v_c), None if instant is None else
+                                    tuple(slim(f) for f in instant))
+                i_w, v_w, inst_w = slimmed[key]
+                return pool.submit(_identify_in_worker, c, structures[c], i_w, v_w, cols_c,
+                                   splits.coverage, settings, has_truth, source,
+                                   splits.left_out.get(c), inst_w)
+            futures = {submit(c): c for c in order}
             for fut in as_completed(futures):
                 done(futures[fut], fut.result())
     else:
         with kernels.one_blas_thread():
             for c in coefs:
-                done(c, _identify_one(c, structures[c], ident, valid, columns,
+                i_c, v_c, cols_c, instant = frames_for(c)
+                done(c, _identify_one(c, structures[c], i_c, v_c, cols_c,
                                       splits.coverage, settings, has_truth, source,
-                                      splits.left_out.get(c)))
+                                      splits.left_out.get(c), instant))
     for c in coefs:          # in coefficient order, however the workers finished
         res, pred_v, new_notes, to_warn = outcomes[c]
         results[c] = res
@@ -1119,10 +1215,13 @@ SLOT_PROCESSES = 3
 
 def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
                   coverage: _Coverage, settings: IdentificationSettings, has_truth: bool,
-                  source, left_out=None) -> tuple:
+                  source, left_out=None, instant=None) -> tuple:
     """Select (optionally), fit and validate the model of coefficient ``c`` (in this
     process or a worker); ``left_out``: the identification maneuver validated by leaving
-    it out (:attr:`Identification.left_out_validation`), or None.
+    it out (:attr:`Identification.left_out_validation`), or None; ``instant``: when
+    ``ident`` and ``valid`` hold matched-smoothed regressors (:func:`_matched_frames`),
+    the (identification, validation) frames with the instantaneous ones, at which the
+    model is judged against a truth.
 
     Returns
     -------
@@ -1190,7 +1289,7 @@ def _identify_one(c: str, start: Structure, ident, valid, columns: Mapping,
     with compute_slot():
         return _fit_and_validate(c, best, history, prior_degree, prior_scores, ident, valid,
                                  columns, coverage, settings, has_truth, source, notes, warn,
-                                 t0, busy0, left_out)
+                                 t0, busy0, left_out, instant)
 
 
 #: A maneuver counts as scored by the structure search's cross-validation when at least
@@ -1290,11 +1389,12 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
                       prior_scores: dict, ident, valid, columns: Mapping,
                       coverage: _Coverage, settings: IdentificationSettings,
                       has_truth: bool, source, notes: list, warn: list, t0: float,
-                      busy0: float | None, left_out_maneuver=None) -> tuple:
+                      busy0: float | None, left_out_maneuver=None, instant=None) -> tuple:
     """The rest of :func:`_identify_one` after the search: the final fit on all
     identification data, validation and the notes. With ``left_out_maneuver`` the
     validation also scores that identification maneuver, predicted by a model of the
-    same structure identified without it (:func:`_left_out_prediction`)."""
+    same structure identified without it (:func:`_left_out_prediction`). ``instant``: as
+    in :func:`_identify_one`."""
     y = ident[c].to_numpy(dtype=float)
     mans = ident["maneuver"].to_numpy()
     model = fit_structure(best, columns, y, settings.selection, prior_degree=prior_degree,
@@ -1307,25 +1407,30 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
     pred_v = model.predict(valid)
     truth_v = valid[f"true_{c}"].to_numpy() if has_truth else None
     truth_i = ident[f"true_{c}"].to_numpy() if has_truth else None
+    # against the truth: the model at the instantaneous regressors (None: those of pred_v)
+    at_truth_v = None if instant is None or not has_truth else model.predict(instant[1])
     covered = _covered(model, valid, coverage.valid_covered)
     measured, predicted = valid[c].to_numpy(dtype=float), pred_v
     v_mans = valid["maneuver"].to_numpy()
     types = valid["maneuver_type"].to_numpy() if "maneuver_type" in valid.columns else None
     v_scores = scores_by_coverage(measured, predicted, covered, truth=truth_v,
-                                  maneuvers=v_mans)
+                                  maneuvers=v_mans, truth_model=at_truth_v)
     excited = _excitation_where_covered(c, measured, predicted, covered, v_mans,
                                         v_scores["r2"], types)
     # barely excited where it is validated: the maneuver that excites it, left out
     left = None if left_out_maneuver is None or excited["excited"] else \
-        _left_out_prediction(best, columns, y, mans, left_out_maneuver, ident, settings,
+        _left_out_prediction(best, columns, y, mans, left_out_maneuver, settings,
                              prior_degree)
     if left is not None:
-        mine, pred_lo = left
+        mine, lo_model = left
+        pred_lo = lo_model.predict(ident.loc[mine], outside="hold")
+        at_truth_lo = None if at_truth_v is None else \
+            lo_model.predict(instant[0].loc[mine], outside="hold")
         shared = {k: v_scores[k] for k in ("rms", "rrms", "r2", "n", "coverage", "rms_true",
                                            "noise_rms", "rms_true_over_noise")
                   if k in v_scores}
         lo_scores = scores(y[mine], pred_lo, truth=None if truth_i is None
-                           else truth_i[mine], max_lag=0)
+                           else truth_i[mine], max_lag=0, truth_model=at_truth_lo)
         lo_scores.pop("autocorrelation", None)
         # the left-out maneuver is scored whole: nothing else excites the coefficient, so
         # the model identified without it meets it beyond the rest of the data
@@ -1333,10 +1438,11 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
         covered = np.r_[covered, np.ones(int(mine.sum()), dtype=bool)]
         v_mans = np.r_[v_mans, mans[mine]]
         truth_v = None if truth_v is None else np.r_[truth_v, truth_i[mine]]
+        at_truth_v = None if at_truth_v is None else np.r_[at_truth_v, at_truth_lo]
         if types is not None:
             types = np.r_[types, ident["maneuver_type"].to_numpy()[mine]]
         v_scores = scores_by_coverage(measured, predicted, covered, truth=truth_v,
-                                      maneuvers=v_mans)
+                                      maneuvers=v_mans, truth_model=at_truth_v)
         v_scores["left_out"] = {"maneuver": _plain_id(left_out_maneuver), **lo_scores}
         v_scores["shared"] = shared
         kind = "" if types is None else f" ({types[-1]})"
@@ -1350,7 +1456,9 @@ def _fit_and_validate(c: str, best: Structure, history: list, prior_degree: int,
         excited = _excitation_where_covered(c, measured, predicted, covered, v_mans,
                                             v_scores["r2"], types)
     pred_i = model.predict(ident)
-    i_scores = scores(y, pred_i, truth=truth_i, maneuvers=mans, max_lag=0)
+    i_scores = scores(y, pred_i, truth=truth_i, maneuvers=mans, max_lag=0,
+                      truth_model=None if instant is None or truth_i is None
+                      else model.predict(instant[0]))
     if excited["message"]:
         notes.append(excited["message"])
     if v_scores["coverage"] < MIN_VALIDATION_COVERAGE:
@@ -1495,12 +1603,13 @@ def _plain_id(m):
 
 
 def _left_out_prediction(best: Structure, columns: Mapping, y: np.ndarray,
-                         mans: np.ndarray, maneuver, ident, settings: IdentificationSettings,
+                         mans: np.ndarray, maneuver, settings: IdentificationSettings,
                          prior_degree: int) -> tuple | None:
     """The left-out validation of one maneuver (:attr:`Identification.left_out_validation`):
-    its rows in ``ident`` (mask) and the prediction there of a model of structure ``best``
-    identified on the other identification maneuvers; None when that model cannot be
-    fitted (the rest too thin). On a flight-test course with one elevator input per test
+    its rows in the identification data (mask) and a model of structure ``best``
+    identified on the other identification maneuvers, to predict them with
+    ``outside='hold'``; None when that model cannot be fitted (the rest too thin). On a
+    flight-test course with one elevator input per test
     point (global5000, six test points, no maneuver list), Cm was validated on stationary
     segments, aileron inputs and turns (R^2 -0.50: the noise against a bias); left out,
     the elevator input that excites it is predicted to R^2 0.92.
@@ -1524,7 +1633,7 @@ def _left_out_prediction(best: Structure, columns: Mapping, y: np.ndarray,
                               settings.selection, prior_degree=prior_degree)
     except SimplexSplineError:
         return None
-    return mine, model.predict(ident.loc[mine], outside="hold")
+    return mine, model
 
 
 def _held_note(c: str, held: Mapping, variables) -> str:

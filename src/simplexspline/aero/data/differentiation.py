@@ -36,7 +36,8 @@ import numpy as np
 from simplexspline.errors import InputError
 
 __all__ = ["HALF_WINDOW_S", "SIMULATOR_STEP_MAX_S", "derivative_by_maneuver",
-           "derivative_weights", "midpoint_derivative", "sample_derivative"]
+           "derivative_weights", "matched_by_maneuver", "matched_smoothing", "matched_weights",
+           "midpoint_derivative", "sample_derivative"]
 
 #: Largest sample interval [s] taken as the simulator's own step (JSBSim's explicit Euler at
 #: 100 Hz): the forward-difference (midpoint) convention of the flight-data schema applies.
@@ -210,6 +211,23 @@ def derivative_by_maneuver(maneuver, t, values, *, half_window: int | None = Non
     >>> bool(np.allclose(d, 3.0))
     True
     """
+    def derivative(col, dt, m, coarse):
+        return (sample_derivative if coarse else midpoint_derivative)(col, dt, m, degree)
+    return _by_maneuver(maneuver, t, values, half_window, derivative)
+
+
+def _half_window(dt: float, half_window: int | None) -> tuple[int, bool]:
+    """The half window of a maneuver sampled every ``dt`` seconds, and whether it is
+    coarser than the simulator's step (:func:`derivative_by_maneuver`)."""
+    if dt <= SIMULATOR_STEP_MAX_S:
+        return (8 if half_window is None else half_window), False
+    return (max(2, round(HALF_WINDOW_S / dt)) if half_window is None else half_window), True
+
+
+def _by_maneuver(maneuver, t, values, half_window: int | None, apply) -> np.ndarray:
+    """``apply(col, dt, m, coarse)`` on each finite signal of each maneuver in time order
+    (NaN for a maneuver's signal that holds a NaN or only one sample), in the input's row
+    order; ``m`` and ``coarse`` from :func:`_half_window`."""
     man = np.asarray(maneuver)
     t = np.asarray(t, dtype=float)
     x = np.asarray(values, dtype=float)
@@ -226,13 +244,116 @@ def derivative_by_maneuver(maneuver, t, values, *, half_window: int | None = Non
             continue
         idx = idx[np.argsort(t[idx], kind="stable")]
         dt = float(np.median(np.diff(t[idx])))
-        if dt <= SIMULATOR_STEP_MAX_S:
-            derivative, m = midpoint_derivative, 8 if half_window is None else half_window
-        else:
-            derivative = sample_derivative
-            m = max(2, round(HALF_WINDOW_S / dt)) if half_window is None else half_window
+        m, coarse = _half_window(dt, half_window)
         for j in range(x2.shape[1]):
             col = x2[idx, j]
             if np.isfinite(col).all():
-                out[idx, j] = derivative(col, dt, m, degree)
+                out[idx, j] = apply(col, dt, m, coarse)
     return out[:, 0] if flat else out
+
+
+def matched_weights(positions, at: float, degree: int) -> np.ndarray:
+    """Weights v such that ``sum(v * z)`` is what the derivative weights
+    (:func:`derivative_weights` ``(positions, at, degree)``) make of a signal whose
+    derivative is ``z``: the smoothing that the derivative filter applies to the derivative.
+
+    A derivative filter ``sum(w_j x(p_j))`` of a continuous signal is an integral of its
+    derivative, ``integral K(s) x'(s) ds`` with the kernel ``K(s) = sum of w_j over the
+    p_j beyond s`` (counted negative before ``at``), whose integral is 1. The derivative it
+    returns is ``K * x'``, not ``x'(at)``: a pitch acceleration differentiated from 10 Hz
+    rates is smeared over +-2 samples, by as much as the elevator step that caused it.
+    Regressors that enter the same equation linearly must be smeared alike for the equation
+    to hold (``K * (a z) = a (K * z)``); with ``z`` linear between samples,
+    ``v_i = integral K(s) hat_i(s) ds`` makes that exact: for ``x' = z``,
+    ``sum(w * x) == sum(v * z)`` (Morelli and Klein, *Aircraft System Identification*,
+    treat the frequency-domain counterpart: the same filter on both sides of the equation).
+
+    Parameters
+    ----------
+    positions : (k,) ndarray
+        Sample positions in units of the sample interval (consecutive integers).
+    at, degree
+        As in :func:`derivative_weights`.
+
+    Returns
+    -------
+    (k,) ndarray
+        Weights summing to 1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> np.round(matched_weights(np.arange(5.0), 2.0, 4) * 24, 10)
+    array([-1.,  6., 14.,  6., -1.])
+    """
+    pos = np.asarray(positions, dtype=float)
+    w = derivative_weights(pos, at, degree)
+    cuts = np.unique(np.r_[pos, at])
+    cuts = cuts[(cuts >= pos.min()) & (cuts <= pos.max())]
+    v = np.zeros(pos.size)
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        mid = 0.5 * (a + b)
+        k = w[pos > mid].sum() if mid > at else -w[pos < mid].sum()
+        hat_a = np.maximum(0.0, 1.0 - np.abs(a - pos))
+        hat_b = np.maximum(0.0, 1.0 - np.abs(b - pos))
+        v += k * 0.5 * (b - a) * (hat_a + hat_b)
+    return v
+
+
+def matched_smoothing(x, half_window: int = 2, degree: int = 4) -> np.ndarray:
+    """A regressor smoothed as :func:`sample_derivative` smooths a derivative (its windows,
+    one-sided at the ends, with :func:`matched_weights`).
+
+    Parameters
+    ----------
+    x : (n,) array_like
+        Samples (finite) of a signal that enters an equation with the derivative.
+    half_window, degree
+        Those of the derivative (:func:`sample_derivative`).
+
+    Returns
+    -------
+    (n,) ndarray
+        For ``x`` linear between samples and ``q' = x``, ``sample_derivative(q) ==
+        matched_smoothing(x)`` (to rounding).
+    """
+    x, m = _checked(x, half_window, degree)
+    n = x.size
+    w = min(2 * m + 1, n)
+    degree = min(int(degree), w - 1)
+    pos = np.arange(w, dtype=float)
+    out = np.empty(n)
+    half = (w - 1) // 2
+    if n >= w:
+        centre = matched_weights(pos, (w - 1) / 2, degree)
+        out[half:n - half] = np.convolve(x, centre[::-1], mode="valid")
+    for k in list(range(0, half)) + list(range(n - half, n)):
+        start = min(max(k - m, 0), n - w)
+        out[k] = matched_weights(pos, k - start, degree) @ x[start:start + w]
+    return out
+
+
+def matched_by_maneuver(maneuver, t, values, *, half_window: int | None = None,
+                        degree: int = 4) -> np.ndarray:
+    """Regressors smoothed as :func:`derivative_by_maneuver` smooths the derivatives, maneuver
+    by maneuver: :func:`matched_smoothing` where a maneuver is sampled coarser than the
+    simulator's step, the values unchanged at the step.
+
+    At the simulator's step the schema's derivative is the forward difference of an explicit
+    Euler integration, exact at the sample (not the smoothing of a continuous motion), and
+    the 16-sample window's gain is -3 dB only at 7.9 Hz; there is nothing to match.
+
+    Parameters
+    ----------
+    maneuver, t, values, half_window, degree
+        As in :func:`derivative_by_maneuver` (the same settings as the derivatives').
+
+    Returns
+    -------
+    ndarray, shape of ``values``
+        In the input's row order; NaN for a maneuver's signal that holds a NaN or only one
+        sample.
+    """
+    def smooth(col, _dt, m, coarse):
+        return matched_smoothing(col, m, degree) if coarse else col
+    return _by_maneuver(maneuver, t, values, half_window, smooth)

@@ -493,7 +493,8 @@ def autocorrelation(residual: np.ndarray, maneuvers: np.ndarray | None = None,
 
 
 def scores(measured: np.ndarray, model: np.ndarray, *, truth: np.ndarray | None = None,
-           maneuvers: np.ndarray | None = None, max_lag: int = 50) -> dict:
+           maneuvers: np.ndarray | None = None, max_lag: int = 50,
+           truth_model: np.ndarray | None = None) -> dict:
     """Validation scores of a model output against measurements (and the truth).
 
     Parameters
@@ -504,6 +505,11 @@ def scores(measured: np.ndarray, model: np.ndarray, *, truth: np.ndarray | None 
         True coefficient (simulated data).
     maneuvers : ndarray, shape (N,), optional
         For the residual autocorrelation (lags do not cross maneuvers).
+    truth_model : ndarray, shape (N,), optional
+        The model's prediction to judge against ``truth`` when it differs from the one
+        against the measurements (``model``): a measurement that smooths the coefficient
+        is predicted from regressors smoothed alike, the truth from the instantaneous ones
+        (:func:`~simplexspline.aero.data.differentiation.matched_by_maneuver`).
 
     Returns
     -------
@@ -538,9 +544,10 @@ def scores(measured: np.ndarray, model: np.ndarray, *, truth: np.ndarray | None 
     }
     if truth is not None:
         t = np.asarray(truth, dtype=float)
-        if t.shape != y.shape:
-            raise InputError("truth must have the shape of measured")
-        et = t - yhat
+        at = yhat if truth_model is None else np.asarray(truth_model, dtype=float)
+        if t.shape != y.shape or at.shape != y.shape:
+            raise InputError("truth (and truth_model) must have the shape of measured")
+        et = t - at
         rms_t = float(np.sqrt(np.mean(et * et)))
         noise = float(np.sqrt(np.mean((y - t) ** 2)))
         out.update(rms_true=rms_t, rrms_true=rms_t / rng if rng > 0 else float("nan"),
@@ -551,7 +558,8 @@ def scores(measured: np.ndarray, model: np.ndarray, *, truth: np.ndarray | None 
 
 def scores_by_coverage(measured: np.ndarray, model: np.ndarray, covered: np.ndarray, *,
                        truth: np.ndarray | None = None,
-                       maneuvers: np.ndarray | None = None) -> dict:
+                       maneuvers: np.ndarray | None = None,
+                       truth_model: np.ndarray | None = None) -> dict:
     """:func:`scores` on the samples inside the identification data's envelope, and the
     same on the rest under ``'outside'``: an extrapolation is judged apart from the fit.
 
@@ -560,7 +568,7 @@ def scores_by_coverage(measured: np.ndarray, model: np.ndarray, covered: np.ndar
     measured, model : ndarray, shape (N,)
     covered : ndarray of bool, shape (N,)
         Samples inside the coverage (:mod:`simplexspline.aero.selection.coverage`).
-    truth, maneuvers : ndarray, shape (N,), optional
+    truth, maneuvers, truth_model : ndarray, shape (N,), optional
         As in :func:`scores`.
 
     Returns
@@ -582,7 +590,8 @@ def scores_by_coverage(measured: np.ndarray, model: np.ndarray, covered: np.ndar
     def part(mask, max_lag=50):
         return scores(y[mask], yhat[mask], truth=None if truth is None
                       else np.asarray(truth, dtype=float)[mask], maneuvers=man[mask],
-                      max_lag=max_lag)
+                      max_lag=max_lag, truth_model=None if truth_model is None
+                      else np.asarray(truth_model, dtype=float)[mask])
 
     out = part(inside)
     out["coverage"] = float(covered.mean())
