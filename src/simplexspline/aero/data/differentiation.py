@@ -157,21 +157,27 @@ def sample_derivative(x, dt: float, half_window: int = 2, degree: int = 4) -> np
     True
     """
     x, m = _checked(x, half_window, degree)
+    return _odd_window(x, m, degree, lambda pos, at, d: derivative_weights(pos, at, d) / dt)
+
+
+def _odd_window(x: np.ndarray, m: int, degree: int, weights) -> np.ndarray:
+    """``sum(weights(positions, at, degree) * window)`` at every sample of ``x``: the window
+    ``k - m .. k + m`` (shifted inside the data at the ends, all of ``x`` when shorter), the
+    weights evaluated at the sample's place in it (:func:`sample_derivative`,
+    :func:`matched_smoothing`)."""
     n = x.size
     w = min(2 * m + 1, n)
     degree = min(int(degree), w - 1)
     pos = np.arange(w, dtype=float)
     out = np.empty(n)
-    if n >= w:
-        centre = derivative_weights(pos, (w - 1) / 2, degree) / dt
-        half = (w - 1) // 2
-        out[half:n - half] = np.convolve(x, centre[::-1], mode="valid")
-        ends = list(range(0, half)) + list(range(n - half, n))
+    if w == 2 * m + 1:
+        out[m:n - m] = np.convolve(x, weights(pos, float(m), degree)[::-1], mode="valid")
+        ends = list(range(0, m)) + list(range(n - m, n))
     else:
         ends = range(n)
     for k in ends:
         start = min(max(k - m, 0), n - w)
-        out[k] = derivative_weights(pos, k - start, degree) / dt @ x[start:start + w]
+        out[k] = weights(pos, k - start, degree) @ x[start:start + w]
     return out
 
 
@@ -318,19 +324,7 @@ def matched_smoothing(x, half_window: int = 2, degree: int = 4) -> np.ndarray:
         matched_smoothing(x)`` (to rounding).
     """
     x, m = _checked(x, half_window, degree)
-    n = x.size
-    w = min(2 * m + 1, n)
-    degree = min(int(degree), w - 1)
-    pos = np.arange(w, dtype=float)
-    out = np.empty(n)
-    half = (w - 1) // 2
-    if n >= w:
-        centre = matched_weights(pos, (w - 1) / 2, degree)
-        out[half:n - half] = np.convolve(x, centre[::-1], mode="valid")
-    for k in list(range(0, half)) + list(range(n - half, n)):
-        start = min(max(k - m, 0), n - w)
-        out[k] = matched_weights(pos, k - start, degree) @ x[start:start + w]
-    return out
+    return _odd_window(x, m, degree, matched_weights)
 
 
 def matched_by_maneuver(maneuver, t, values, *, half_window: int | None = None,
