@@ -412,6 +412,7 @@ def test_thin_simplices_warn(table):
     ({"derivative_folds": 1}, "derivative_folds must be 0 .no standard errors. or an integer"),
     ({"derivative_folds": -2}, "derivative_folds must be 0"),
     ({"derivative_folds": 2.5}, "derivative_folds must be 0"),
+    ({"matched_regressors": "yes"}, "matched_regressors must be true or false"),
 ])
 def test_settings_are_validated_before_any_work(change, match):
     """Bad settings fail when the settings are made, not after the whole run."""

@@ -217,6 +217,9 @@ class IdentificationSettings:
                                          or not isinstance(self.workers, (int, np.integer))
                                          or self.workers < 1):
             raise InputError(f"workers must be an integer >= 1 or None, got {self.workers!r}")
+        if not isinstance(self.matched_regressors, (bool, np.bool_)):
+            raise InputError("matched_regressors must be true or false, got "
+                             f"{self.matched_regressors!r}")
 
     def starting_structures(self) -> dict:
         base = preset(self.preset)
@@ -233,6 +236,7 @@ class IdentificationSettings:
             "split_motion": self.split_motion,
             "reconstruct": self.reconstruct, "thin_factor": self.thin_factor,
             "derivative_folds": self.derivative_folds,
+            "matched_regressors": self.matched_regressors,
         }
 
 
