@@ -1095,15 +1095,15 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
     workers = min(len(coefs), settings.workers or os.cpu_count() or 1)
     bar = _bar(len(coefs), progress)
     outcomes = {}
-    smoothed: list = []
+    # (identification, validation, columns, instantaneous frames or None) per kind of
+    # coefficient: True for a moment coefficient on matched regressors
+    frames = {False: (ident, valid, columns, None)}
+    if splits.matched is not None and any(c in MOMENT_COEFFICIENTS for c in coefs):
+        frames[True] = (*_matched_frames(ident, valid, columns, splits.matched),
+                        (ident, valid))
 
-    def frames_for(c):
-        """(identification, validation, columns, instantaneous frames or None) of c."""
-        if splits.matched is None or c not in MOMENT_COEFFICIENTS:
-            return ident, valid, columns, None
-        if not smoothed:
-            smoothed.extend(_matched_frames(ident, valid, columns, splits.matched))
-        return (*smoothed, (ident, valid))
+    def matched(c) -> bool:
+        return c in MOMENT_COEFFICIENTS and True in frames
 
     def done(c, outcome):
         outcomes[c] = outcome
@@ -1131,25 +1131,20 @@ def _fit_coefficients(structures: Mapping, ident, valid, columns: Mapping,
         gate = ctx.Semaphore(workers) if procs > workers else None
         with ProcessPoolExecutor(max_workers=procs, mp_context=ctx,
                                  initializer=init_worker, initargs=(gate,)) as pool:
-            slimmed = {}
-
-            def submit(c):
-                i_c, v_c, cols_c, instant = frames_for(c)
-                key = instant is not None
-                if key not in slimmed:
-                    slimmed[key] = (slim(i_c), slim(v_c), None if instant is None else
-                                    tuple(slim(f) for f in instant))
-                i_w, v_w, inst_w = slimmed[key]
-                return pool.submit(_identify_in_worker, c, structures[c], i_w, v_w, cols_c,
-                                   splits.coverage, settings, has_truth, source,
-                                   splits.left_out.get(c), inst_w)
-            futures = {submit(c): c for c in order}
+            slimmed = {k: (slim(i), slim(v), cols, None if inst is None else
+                           tuple(slim(f) for f in inst))
+                       for k, (i, v, cols, inst) in frames.items()}
+            futures = {pool.submit(_identify_in_worker, c, structures[c],
+                                   *slimmed[matched(c)][:3], splits.coverage, settings,
+                                   has_truth, source, splits.left_out.get(c),
+                                   slimmed[matched(c)][3]): c
+                       for c in order}
             for fut in as_completed(futures):
                 done(futures[fut], fut.result())
     else:
         with kernels.one_blas_thread():
             for c in coefs:
-                i_c, v_c, cols_c, instant = frames_for(c)
+                i_c, v_c, cols_c, instant = frames[matched(c)]
                 done(c, _identify_one(c, structures[c], i_c, v_c, cols_c,
                                       splits.coverage, settings, has_truth, source,
                                       splits.left_out.get(c), instant))
